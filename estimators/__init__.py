@@ -1,0 +1,14 @@
+"""Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
+
+from .filters import FILTER_NAMES, Filter, make_filter
+from .linalg import NotPositiveDefiniteError, chol, chol_update, svd_factor, tria
+from .models import Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
+from .rules import CentralDifference, Cubature, Unscented
+from .spaces import Angle, Euclidean, Product, Space, Wrapped, wrap_angle
+
+__all__ = [
+    "FILTER_NAMES", "Filter", "make_filter", "NotPositiveDefiniteError", "chol", "chol_update",
+    "svd_factor", "tria", "Gaussian", "Innovation", "Measurement", "Noise", "SqrtGaussian",
+    "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
+    "Product", "Space", "Wrapped", "wrap_angle",
+]

@@ -1,0 +1,238 @@
+r"""Sigma-point Kalman filters: one predict/update pair for every rule and form.
+
+Rules (:mod:`estimators.rules`): cubature, unscented, central difference.
+Forms: ``"dense"`` keeps :math:`P`; ``"sqrt"`` keeps a lower-triangular factor built
+by ``tria`` (QR) and Cholesky downdates; ``"svd"`` keeps a factor :math:`U\Sigma`
+from an SVD.  With the rule's covariance factor :math:`[C \,|\, s_0 c_0]` of the
+deviations of the propagated points:
+
+Prediction (Arasaratnam & Haykin 2009, eqs. 38-42 for the cubature case):
+
+.. math::
+
+    \mathcal X_i = \hat x \boxplus S\xi_i,\quad
+    \mathcal Y_i = f(\mathcal X_i, u),\quad
+    \hat x' = \textstyle\mathrm{mean}_w(\mathcal Y),\quad
+    S' = \mathrm{tria}([C,\ S_Q]) \pm c_0 .
+
+Update (eqs. 43-51), with points redrawn from the predicted belief:
+
+.. math::
+
+    S_{zz} = \mathrm{tria}([C_z,\ S_R]),\quad
+    P_{xz} = C_x C_z^\top,\quad
+    K = P_{xz} S_{zz}^{-\top} S_{zz}^{-1},\quad
+    \hat x^+ = \hat x \boxplus K (z \boxminus \hat z),\quad
+    S^+ = \mathrm{tria}([C_x - K C_z,\ K S_R]) .
+
+Non-additive noise (``Transition.additive = False``) is handled by drawing points
+over the state augmented with the noise input.  A transition with its own
+``space`` changes the state's dimension (used for SLAM landmark augmentation).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from scipy.linalg import solve_triangular
+
+from .linalg import (
+    Array,
+    NotPositiveDefiniteError,
+    block_diag2,
+    chol,
+    chol_update,
+    svd_factor,
+    tria,
+)
+from .models import Belief, Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
+from .rules import Factor, PointRule
+from .spaces import Space
+
+Form = Literal["dense", "sqrt", "svd"]
+
+
+SqrtMethod = Literal["cholesky", "eigh"]
+
+
+def factor_of(belief: Belief, method: SqrtMethod = "cholesky") -> Array:
+    r"""A square factor of the belief's covariance.
+
+    A square-root belief gives its stored factor.  A dense belief is factored by
+    Cholesky, or by the eigen-decomposition :math:`P = U\Lambda U^\top \to U\Lambda^{1/2}`
+    (``"eigh"``: the points the SVD-factored filter draws, up to order and sign).
+    """
+    if isinstance(belief, SqrtGaussian):
+        return belief.sqrt
+    if method == "cholesky":
+        return chol(belief.cov)
+    lam, U = np.linalg.eigh(belief.cov)
+    if not lam.min() > 0.0:
+        raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} <= 0")
+    return U * np.sqrt(lam)
+
+
+def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,
+         method: SqrtMethod = "cholesky") -> tuple[Array, Array, Array, Array]:
+    """Sigma points of ``belief`` (optionally jointly with an independent noise input).
+
+    Returns
+    -------
+    X : (m, nx) points on the belief's space.
+    W : (m, nw) noise points (``nw = 0`` without noise).
+    dX : (m, d) tangent deviations :math:`S\\xi_i` of the state part.
+    wm : (m,) mean weights.
+    """
+    S = factor_of(belief, method)
+    if noise is not None:
+        S = block_diag2(S, noise.sqrt)
+    xi, wm = rule.points(S.shape[0])
+    delta = xi @ S.T
+    d = belief.dim
+    X = belief.space.retract(belief.mean, delta[:, :d])
+    return X, delta[:, d:], delta[:, :d], wm
+
+
+def _dense(fac: Factor, noise_cov: Array | None) -> Array:
+    """``C Cᵀ + sign·c0 c0ᵀ (+ noise_cov)``, symmetrised."""
+    P = fac.C @ fac.C.T
+    if noise_cov is not None:
+        P = P + noise_cov
+    if fac.c0 is not None:
+        P = P + fac.sign * np.outer(fac.c0, fac.c0)
+    return 0.5 * (P + P.T)
+
+
+def _factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
+    """Square factor of ``[C, extra][C, extra]ᵀ + sign·c0 c0ᵀ`` by QR (``sqrt``) or SVD."""
+    blocks = [fac.C] if extra is None else [fac.C, extra]
+    if form == "svd":
+        if fac.c0 is not None:
+            if fac.sign < 0:
+                raise ValueError("the SVD form needs non-negative weights")
+            blocks.append(fac.c0[:, None])
+        return svd_factor(np.hstack(blocks))
+    S = tria(np.hstack(blocks))
+    if fac.c0 is not None:
+        S = chol_update(S, fac.c0, fac.sign)
+    return S
+
+
+def _covariance(form: Form, fac: Factor, noise: Noise | None) -> Array:
+    """The new belief's covariance (dense form) or factor (other forms)."""
+    if form == "dense":
+        return _dense(fac, None if noise is None else noise.cov)
+    return _factorise(form, fac, None if noise is None else noise.sqrt)
+
+
+def _belief(form: Form, mean: Array, cov_or_sqrt: Array, space: Space) -> Belief:
+    if form == "dense":
+        return Gaussian(mean, cov_or_sqrt, space)
+    return SqrtGaussian(mean, cov_or_sqrt, space)
+
+
+def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition,
+                  u: Any = None, method: SqrtMethod = "cholesky") -> Belief:
+    """Time update: propagate sigma points through ``model.f``."""
+    if model.additive:
+        X, _, _, wm = draw(rule, belief, None, method)
+        Y = model.f(X, u)
+    else:
+        X, W, _, wm = draw(rule, belief, model.noise, method)
+        Y = model.f(X, u, W)
+    space = model.space or belief.space
+    mean = space.mean(Y, wm)
+    fac = rule.factor(space.local(mean, Y))
+    cov = _covariance(form, fac, model.noise if model.additive else None)
+    return _belief(form, mean, cov, space)
+
+
+def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
+                 z: Array, method: SqrtMethod = "cholesky") -> tuple[Belief, Innovation]:
+    """Measurement update with points redrawn from ``belief``."""
+    X, _, dX, wm = draw(rule, belief, None, method)
+    Z = model.h(X)
+    zspace = model.space
+    zhat = zspace.mean(Z, wm)
+    fac = rule.factor(np.hstack([dX, zspace.local(zhat, Z)]))
+    d = belief.dim
+    Cx, Cz = fac.C[:d], fac.C[d:]
+    nu = zspace.local(zhat, np.asarray(z, dtype=float))
+    Pxz = Cx @ Cz.T
+    c0x = c0z = None
+    if fac.c0 is not None:
+        c0x, c0z = fac.c0[:d], fac.c0[d:]
+        Pxz = Pxz + fac.sign * np.outer(c0x, c0z)
+    zfac = Factor(Cz, c0z, fac.sign)
+    R = model.noise
+    if form == "dense":
+        Pzz = _covariance("dense", zfac, R)
+        Szz = chol(Pzz)
+        K = _gain_tri(Pxz, Szz)
+        P = belief.cov - K @ Pzz @ K.T
+        post = 0.5 * (P + P.T)
+        w = solve_triangular(Szz, nu, lower=True)
+    elif form == "sqrt":
+        Szz = _covariance("sqrt", zfac, R)
+        if not np.all(np.diagonal(Szz) > 0.0):
+            raise NotPositiveDefiniteError("innovation covariance is singular")
+        K = _gain_tri(Pxz, Szz)
+        post = _factorise("sqrt", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
+        w = solve_triangular(Szz, nu, lower=True)
+    else:
+        Szz = _covariance("svd", zfac, R)
+        U, s, _ = np.linalg.svd(Szz, full_matrices=False)
+        if not np.all(s > 0.0):
+            raise NotPositiveDefiniteError("innovation covariance is singular")
+        K = ((Pxz @ U) / s**2) @ U.T
+        post = _factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
+        w = (U.T @ nu) / s
+    mean = belief.space.retract(belief.mean, K @ nu)
+    return _belief(form, mean, post, belief.space), Innovation(nu, Szz, float(w @ w))
+
+
+def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Array | None,
+                      sign: float) -> Factor:
+    if c0x is None:
+        return Factor(Cx - K @ Cz)
+    return Factor(Cx - K @ Cz, c0x - K @ c0z, sign)
+
+
+def _gain_tri(Pxz: Array, Szz: Array) -> Array:
+    """:math:`K = P_{xz} (S S^\\top)^{-1}` with two triangular solves."""
+    tmp = solve_triangular(Szz, Pxz.T, lower=True)
+    return solve_triangular(Szz.T, tmp, lower=False).T
+
+
+@dataclass(frozen=True)
+class SigmaPointFilter:
+    """A sigma-point Kalman filter: a rule and a covariance form, nothing else.
+
+    ``predict`` and ``update`` are pure: they return new beliefs and never keep
+    anything for the next call.
+    """
+
+    name: str
+    rule: PointRule
+    form: Form = "sqrt"
+    sqrt_method: SqrtMethod = "cholesky"  # how a dense belief is factored to draw points
+
+    def init(self, mean: Array, space: Space, cov: Array | None = None,
+             sqrt: Array | None = None) -> Belief:
+        """Initial belief from a covariance or (for singular priors) a factor."""
+        mean = np.asarray(mean, dtype=float)
+        if sqrt is None:
+            sqrt = chol(np.asarray(cov, dtype=float))
+        sqrt = np.asarray(sqrt, dtype=float)
+        if self.form == "dense":
+            return Gaussian(mean, sqrt @ sqrt.T, space)
+        return SqrtGaussian(mean, sqrt, space)
+
+    def predict(self, belief: Belief, model: Transition, u: Any = None) -> Belief:
+        return sigma_predict(self.rule, self.form, belief, model, u, self.sqrt_method)
+
+    def update(self, belief: Belief, model: Measurement, z: Array
+               ) -> tuple[Belief, Innovation]:
+        return sigma_update(self.rule, self.form, belief, model, z, self.sqrt_method)

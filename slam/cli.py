@@ -1,0 +1,7 @@
+"""Command line interface: ``slam``."""
+import click
+
+
+@click.group()
+def main() -> None:
+    """Workbench for nonlinear navigation filters."""
