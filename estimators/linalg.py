@@ -6,8 +6,11 @@ Square-root filters keep a lower-triangular factor :math:`S` of a covariance
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import lapack
 
 Array = NDArray[np.float64]
 
@@ -28,12 +31,31 @@ def tria(A: Array) -> Array:
         Any factor; ``k < n`` gives a singular (zero-padded) result.
     """
     n, k = A.shape
-    R = np.linalg.qr(A.T, mode="r")  # (min(k, n), n)
-    S = R.T
+    qr, _, _, info = lapack.dgeqrf(np.asarray(A, dtype=float).T)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"QR failed (LAPACK info {info})")
+    S = qr[: min(k, n)].T * _lower_ones(n, min(k, n))
     if S.shape[1] < n:
         S = np.hstack([S, np.zeros((n, n - S.shape[1]))])
     d = np.diagonal(S)
-    return S * np.where(d < 0.0, -1.0, 1.0)
+    if (d < 0.0).any():
+        S = S * np.where(d < 0.0, -1.0, 1.0)
+    return S
+
+
+@lru_cache(maxsize=64)
+def _lower_ones(n: int, m: int) -> Array:
+    mask = np.tril(np.ones((n, m)))
+    mask.setflags(write=False)
+    return mask
+
+
+def solve_lower(L: Array, B: Array, transpose: bool = False) -> Array:
+    """Solve ``L X = B`` (or ``Lᵀ X = B``) for lower-triangular ``L`` (LAPACK ``trtrs``)."""
+    X, info = lapack.dtrtrs(L, B, lower=1, trans=1 if transpose else 0)
+    if info != 0:
+        raise NotPositiveDefiniteError(f"triangular factor is singular (LAPACK info {info})")
+    return X
 
 
 def chol(P: Array) -> Array:

@@ -36,7 +36,6 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 from .linalg import (
     Array,
@@ -44,6 +43,7 @@ from .linalg import (
     block_diag2,
     chol,
     chol_update,
+    solve_lower,
     svd_factor,
     tria,
 )
@@ -173,14 +173,14 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         K = _gain_tri(Pxz, Szz)
         P = belief.cov - K @ Pzz @ K.T
         post = 0.5 * (P + P.T)
-        w = solve_triangular(Szz, nu, lower=True)
+        w = solve_lower(Szz, nu)
     elif form == "sqrt":
         Szz = _covariance("sqrt", zfac, R)
         if not np.all(np.diagonal(Szz) > 0.0):
             raise NotPositiveDefiniteError("innovation covariance is singular")
         K = _gain_tri(Pxz, Szz)
         post = _factorise("sqrt", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
-        w = solve_triangular(Szz, nu, lower=True)
+        w = solve_lower(Szz, nu)
     else:
         Szz = _covariance("svd", zfac, R)
         U, s, _ = np.linalg.svd(Szz, full_matrices=False)
@@ -202,8 +202,7 @@ def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Ar
 
 def _gain_tri(Pxz: Array, Szz: Array) -> Array:
     """:math:`K = P_{xz} (S S^\\top)^{-1}` with two triangular solves."""
-    tmp = solve_triangular(Szz, Pxz.T, lower=True)
-    return solve_triangular(Szz.T, tmp, lower=False).T
+    return solve_lower(Szz, solve_lower(Szz, Pxz.T), transpose=True).T
 
 
 @dataclass(frozen=True)

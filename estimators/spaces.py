@@ -180,13 +180,6 @@ class Wrapped:
 
     n: int
     angles: tuple[int, ...]
-    _mask: Array = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        mask = np.zeros(self.n, dtype=bool)
-        mask[list(self.angles)] = True
-        mask.setflags(write=False)
-        object.__setattr__(self, "_mask", mask)
 
     @property
     def ambient_dim(self) -> int:
@@ -197,7 +190,10 @@ class Wrapped:
         return self.n
 
     def _wrap(self, v: Array) -> Array:
-        return np.where(self._mask, wrap_angle(v), v)
+        out = np.array(v, dtype=float, copy=True)
+        for i in self.angles:
+            out[..., i] = (out[..., i] + np.pi) % (2.0 * np.pi) - np.pi
+        return out
 
     def retract(self, x: Array, delta: Array) -> Array:
         return self._wrap(x + delta)
