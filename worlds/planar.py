@@ -1,0 +1,351 @@
+"""The ``planar-slam`` world: a car-like vehicle driving a waypoint loop among point landmarks.
+
+File layout (degrees only in the file, with ``_deg`` in the key; radians in the dataclasses)::
+
+    kind = "planar-slam"
+    description = "one line"
+    runs = 50                  # Monte Carlo runs
+    seed = 0                   # optional
+    [map]      bounds_m = [xmin, xmax, ymin, ymax]; landmarks = [[x, y], ...];
+               waypoints = [[x, y], ...]; or file = "data/x.json" ({"lm": [xs, ys], "wp": ...})
+    [vehicle]  speed_mps, max_steer_deg, steer_rate_deg_s, wheelbase_m, dt_s, at_waypoint_m,
+               loops, start_xy_m, start_heading_deg (default: towards the first waypoint),
+               initial_sigma_xy_m, initial_sigma_heading_deg (default 0: start known exactly)
+    [sensor]   max_range_m, period_steps, sigma_range_m, sigma_bearing_deg, front_half_plane
+    [noise]    sigma_speed_mps, sigma_steer_deg
+    [filters]  names, association ("known" | "nn"), gate_accept, gate_new, mode ("joint")
+    [paper]    free-form: the paper's reported numbers, passed through to summary.json
+
+Keys of ``[vehicle]``, ``[sensor]``, ``[noise]`` and ``[filters]`` other than the start,
+the filter names and the map default to Tim Bailey's simulator settings.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from worlds.schema import (
+    Boolean,
+    FreeForm,
+    Integer,
+    Interval,
+    Number,
+    Points,
+    Section,
+    String,
+    StringList,
+    Vector,
+    Where,
+    positive,
+    read_table,
+)
+
+Array = NDArray[np.float64]
+DEG = math.pi / 180.0
+KIND = "planar-slam"
+FILTER_NAMES = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf", "svdckf")
+ASSOCIATIONS = ("known", "nn")
+MODES = ("joint",)
+
+_COORD = Interval(-1e6, 1e6)
+
+SCHEMA = {
+    "kind": String(choices=(KIND,)),
+    "description": String(one_line=True, max_len=200),
+    "runs": Integer(Interval(1, 100_000)),
+    "seed": Integer(Interval(0, 2**63 - 1), default=0),
+    "map": Section(
+        {
+            "bounds_m": Vector(4, _COORD),
+            "file": String(default=None),
+            "landmarks": Points(default=None),
+            "waypoints": Points(default=None),
+        }
+    ),
+    "vehicle": Section(
+        {
+            "speed_mps": Number(positive(50.0), default=3.0),
+            "max_steer_deg": Number(Interval(0.0, 90.0, True, True), 30.0, DEG),
+            "steer_rate_deg_s": Number(positive(360.0), 20.0, DEG),
+            "wheelbase_m": Number(positive(20.0), default=4.0),
+            "dt_s": Number(positive(1.0), default=0.025),
+            "at_waypoint_m": Number(positive(100.0), default=1.0),
+            "loops": Integer(Interval(1, 100), default=2),
+            "start_xy_m": Vector(2, _COORD),
+            "start_heading_deg": Number(Interval(-360.0, 360.0), None, DEG),
+            "initial_sigma_xy_m": Number(Interval(0.0, 100.0), 0.0),
+            "initial_sigma_heading_deg": Number(Interval(0.0, 180.0), 0.0, DEG),
+        }
+    ),
+    "sensor": Section(
+        {
+            "max_range_m": Number(positive(10_000.0), default=30.0),
+            "period_steps": Integer(Interval(1, 100_000), default=8),
+            "sigma_range_m": Number(positive(100.0), default=0.1),
+            "sigma_bearing_deg": Number(positive(45.0), 1.0, DEG),
+            "front_half_plane": Boolean(default=True),
+        },
+        required=False,
+    ),
+    "noise": Section(
+        {
+            "sigma_speed_mps": Number(positive(10.0), default=0.3),
+            "sigma_steer_deg": Number(positive(45.0), 3.0, DEG),
+        },
+        required=False,
+    ),
+    "filters": Section(
+        {
+            "names": StringList(FILTER_NAMES),
+            "association": String(choices=ASSOCIATIONS, default="known"),
+            "gate_accept": Number(positive(1_000.0), default=4.0),
+            "gate_new": Number(positive(10_000.0), default=25.0),
+            "mode": String(choices=MODES, default="joint"),
+        }
+    ),
+    "paper": FreeForm(default=dict),
+}
+
+
+def _frozen(a: Any) -> Array:
+    out = np.array(a, dtype=float)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class MapSpec:
+    """Map: ``bounds_m = (xmin, xmax, ymin, ymax)``, landmarks ``(N, 2)``, waypoints ``(M, 2)``.
+
+    The arrays are read-only.
+    """
+
+    bounds_m: tuple[float, float, float, float]
+    landmarks: Array
+    waypoints: Array
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "landmarks", _frozen(self.landmarks).reshape(-1, 2))
+        object.__setattr__(self, "waypoints", _frozen(self.waypoints).reshape(-1, 2))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, MapSpec):
+            return NotImplemented
+        return (
+            self.bounds_m == other.bounds_m
+            and np.array_equal(self.landmarks, other.landmarks)
+            and np.array_equal(self.waypoints, other.waypoints)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True)
+class VehicleSpec:
+    """Car-like vehicle and its waypoint-following controller (angles in radians)."""
+
+    speed_mps: float = 3.0
+    max_steer_rad: float = 30.0 * DEG
+    steer_rate_rad_s: float = 20.0 * DEG
+    wheelbase_m: float = 4.0
+    dt_s: float = 0.025
+    at_waypoint_m: float = 1.0
+    loops: int = 2
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Start pose ``(x m, y m, heading rad)``: the filters' ``x0``."""
+    initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Std of the true start about ``start`` ``(m, m, rad)``: the filters' ``P0``."""
+
+
+@dataclass(frozen=True)
+class RangeBearingSpec:
+    """Range-bearing sensor, sampled every ``period_steps`` control steps."""
+
+    max_range_m: float = 30.0
+    period_steps: int = 8
+    sigma_range_m: float = 0.1
+    sigma_bearing_rad: float = 1.0 * DEG
+    front_half_plane: bool = True
+
+
+@dataclass(frozen=True)
+class ControlNoise:
+    """Std of the noise on the controls the filters see."""
+
+    sigma_speed_mps: float = 0.3
+    sigma_steer_rad: float = 3.0 * DEG
+
+
+@dataclass(frozen=True)
+class FilterSpec:
+    """Which filters to run and how they associate data."""
+
+    names: tuple[str, ...] = ("ekf", "srckf", "srukf", "srcdkf")
+    association: str = "known"
+    gate_accept: float = 4.0
+    gate_new: float = 25.0
+    mode: str = "joint"
+
+
+@dataclass(frozen=True)
+class World:
+    """A validated world. ``paper`` is free-form (JSON-compatible); treat it as read-only."""
+
+    name: str
+    kind: str
+    description: str
+    map: MapSpec
+    vehicle: VehicleSpec
+    sensor: RangeBearingSpec
+    noise: ControlNoise
+    filters: FilterSpec
+    runs: int
+    seed: int = 0
+    paper: dict[str, Any] = field(default_factory=dict)
+    source: str = ""
+    """Where the world came from (file path as shown in errors, or ``<name>``)."""
+
+
+def _read_map_file(rel: str, base: Traversable | None, where: Where) -> dict[str, Array]:
+    """Read ``{"lm": [xs, ys], "wp": [xs, ys]}`` (either may be absent) next to the world."""
+    if base is None:
+        raise where.error("a map file needs a world file to be relative to", rel)
+    target = base.joinpath(rel)
+    try:
+        data = json.loads(target.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise where.error("file not found", rel) from None
+    except (OSError, ValueError) as exc:
+        raise where.error(f"cannot read as JSON: {exc}", rel) from None
+    if not isinstance(data, dict) or not set(data) <= {"lm", "wp"}:
+        raise where.error('must hold a JSON object with keys "lm" and/or "wp"', rel)
+    out = {}
+    for key, rows in data.items():
+        ok = (
+            isinstance(rows, list)
+            and len(rows) == 2
+            and all(isinstance(r, list) for r in rows)
+            and len(rows[0]) == len(rows[1])
+            and all(_finite_number(v) for r in rows for v in r)
+        )
+        if not ok:
+            raise where.error(f'"{key}" must be [[x...], [y...]] of finite numbers', rel)
+        out[key] = np.array(rows, dtype=float).T.reshape(-1, 2)
+    return out
+
+
+def _finite_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _inside(points: Array, bounds: tuple[float, ...]) -> NDArray[np.bool_]:
+    xmin, xmax, ymin, ymax = bounds
+    return (
+        (points[:, 0] >= xmin)
+        & (points[:, 0] <= xmax)
+        & (points[:, 1] >= ymin)
+        & (points[:, 1] <= ymax)
+    )
+
+
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None) -> World:
+    """Validate a parsed ``planar-slam`` TOML document and build its :class:`World`.
+
+    ``source`` is the file name shown in errors; ``base`` the folder map files are read from.
+    """
+    root = Where(source, "")
+    v = read_table(data, SCHEMA, root)
+    m, veh, sen, noi, fil = v["map"], v["vehicle"], v["sensor"], v["noise"], v["filters"]
+    at_map = root.child("map")
+
+    bounds = m["bounds_m"]
+    if not (bounds[0] < bounds[1] and bounds[2] < bounds[3]):
+        raise at_map.child("bounds_m").error(
+            "must be [xmin, xmax, ymin, ymax] with min < max", list(bounds)
+        )
+
+    from_file = _read_map_file(m["file"], base, at_map.child("file")) if m["file"] else {}
+    points = {}
+    for key, short in (("landmarks", "lm"), ("waypoints", "wp")):
+        at = at_map.child(key)
+        if m[key] is not None and short in from_file:
+            raise at.error(f"given both inline and in map file {m['file']!r}")
+        if m[key] is None and short not in from_file:
+            raise at.error("missing (required, inline or via [map] file)")
+        pts = m[key] if m[key] is not None else from_file[short]
+        outside = np.flatnonzero(~_inside(pts, bounds))
+        if outside.size:
+            i = int(outside[0])
+            rule = f"outside the map bounds_m {list(bounds)}"
+            if m[key] is not None:
+                raise at.item(i).error(rule, pts[i].tolist())
+            raise at_map.child("file").error(f"{key}[{i}] = {pts[i].tolist()} is {rule}", m["file"])
+        points[key] = pts
+    if len(points["waypoints"]) < 2:
+        raise at_map.child("waypoints").error(
+            "needs at least 2 waypoints", points["waypoints"].tolist()
+        )
+    if len(points["landmarks"]) < 1:
+        raise at_map.child("landmarks").error("needs at least 1 landmark", [])
+
+    at_veh = root.child("vehicle")
+    sx, sy = veh["start_xy_m"]
+    if not _inside(np.array([[sx, sy]]), bounds)[0]:
+        raise at_veh.child("start_xy_m").error(f"outside the map bounds_m {list(bounds)}", [sx, sy])
+    heading = veh["start_heading_deg"]
+    if heading is None:  # towards the first waypoint
+        wx, wy = points["waypoints"][0]
+        heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
+    heading = (heading + math.pi) % (2.0 * math.pi) - math.pi
+
+    if fil["gate_new"] < fil["gate_accept"]:
+        rule = f"must be >= gate_accept ({fil['gate_accept']:g})"
+        raise root.child("filters.gate_new").error(rule, fil["gate_new"])
+
+    return World(
+        name=name,
+        kind=v["kind"],
+        description=v["description"],
+        map=MapSpec(bounds, points["landmarks"], points["waypoints"]),
+        vehicle=VehicleSpec(
+            speed_mps=veh["speed_mps"],
+            max_steer_rad=veh["max_steer_deg"],
+            steer_rate_rad_s=veh["steer_rate_deg_s"],
+            wheelbase_m=veh["wheelbase_m"],
+            dt_s=veh["dt_s"],
+            at_waypoint_m=veh["at_waypoint_m"],
+            loops=veh["loops"],
+            start=(sx, sy, heading),
+            initial_pose_sigma=(
+                veh["initial_sigma_xy_m"],
+                veh["initial_sigma_xy_m"],
+                veh["initial_sigma_heading_deg"],
+            ),
+        ),
+        sensor=RangeBearingSpec(
+            max_range_m=sen["max_range_m"],
+            period_steps=sen["period_steps"],
+            sigma_range_m=sen["sigma_range_m"],
+            sigma_bearing_rad=sen["sigma_bearing_deg"],
+            front_half_plane=sen["front_half_plane"],
+        ),
+        noise=ControlNoise(noi["sigma_speed_mps"], noi["sigma_steer_deg"]),
+        filters=FilterSpec(
+            names=fil["names"],
+            association=fil["association"],
+            gate_accept=fil["gate_accept"],
+            gate_new=fil["gate_new"],
+            mode=fil["mode"],
+        ),
+        runs=v["runs"],
+        seed=v["seed"],
+        paper=v["paper"],
+        source=source,
+    )

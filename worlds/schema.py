@@ -1,0 +1,318 @@
+"""Validation machinery for world files: typed keys with allowed ranges.
+
+A schema is a ``dict`` from key name to a :class:`Field` (or a nested :class:`Section`).
+:func:`read_table` checks a parsed TOML table against it - unknown keys, missing
+required keys, wrong types, values outside their allowed range - and returns the
+converted values (degrees become radians here, for keys whose name says ``_deg``).
+Every failure is a :class:`WorldError` that names the file, the dotted key and the rule.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+NO_VALUE: Any = object()
+REQUIRED: Any = object()
+
+
+def format_value(value: Any, limit: int = 60) -> str:
+    """A value as it would be written in TOML, shortened to ``limit`` characters."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = json.dumps(value, ensure_ascii=False)
+    elif isinstance(value, list | tuple):
+        text = "[" + ", ".join(format_value(v, limit) for v in value) + "]"
+    elif isinstance(value, dict):
+        text = "{" + ", ".join(f"{k} = {format_value(v, limit)}" for k, v in value.items()) + "}"
+    else:
+        text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def format_key(key: str) -> str:
+    """``"vehicle.speed_mps"`` -> ``"[vehicle] speed_mps"``; top-level keys stay bare."""
+    head, _, last = key.rpartition(".")
+    return f"[{head}] {last}" if head else last
+
+
+class WorldError(ValueError):
+    """A world file that cannot be used, with the file, the dotted key and the reason.
+
+    ``str(err)`` reads ``"worlds/bailey.toml: [vehicle] speed_mps = -3.0: must be in (0, 50]"``.
+    ``key`` is ``None`` for faults of the file as a whole (missing file, TOML syntax);
+    ``line`` is the line number of a TOML syntax error, else ``None``.
+    """
+
+    def __init__(
+        self,
+        file: str,
+        key: str | None,
+        message: str,
+        value: Any = NO_VALUE,
+        line: int | None = None,
+    ) -> None:
+        self.file = str(file)
+        self.key = key
+        self.message = message
+        self.value = value
+        self.line = line
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = self.file if self.line is None else f"{self.file}:{self.line}"
+        if self.key is None:
+            return f"{where}: {self.message}"
+        shown = "" if self.value is NO_VALUE else f" = {format_value(self.value)}"
+        return f"{where}: {format_key(self.key)}{shown}: {self.message}"
+
+
+@dataclass(frozen=True)
+class Interval:
+    """An allowed numeric range, open or closed at either end."""
+
+    lo: float
+    hi: float
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def __contains__(self, v: float) -> bool:
+        above = v > self.lo if self.lo_open else v >= self.lo
+        below = v < self.hi if self.hi_open else v <= self.hi
+        return bool(above and below)
+
+    def __str__(self) -> str:
+        def num(x: float) -> str:
+            return f"{x:g}" if abs(x) < 1e6 else f"{x:.6g}"
+
+        return (
+            f"{'(' if self.lo_open else '['}{num(self.lo)}, "
+            f"{num(self.hi)}{')' if self.hi_open else ']'}"
+        )
+
+
+def positive(hi: float) -> Interval:
+    """``(0, hi]``."""
+    return Interval(0.0, hi, lo_open=True)
+
+
+@dataclass(frozen=True)
+class Where:
+    """The place a value sits: the file and the dotted key; raises errors there."""
+
+    file: str
+    key: str
+
+    def child(self, name: str) -> Where:
+        return Where(self.file, f"{self.key}.{name}" if self.key else name)
+
+    def item(self, index: int) -> Where:
+        return Where(self.file, f"{self.key}[{index}]")
+
+    def error(self, message: str, value: Any = NO_VALUE) -> WorldError:
+        return WorldError(self.file, self.key, message, value)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+class Field:
+    """One key: a parser from its TOML value, and a default (or :data:`REQUIRED`)."""
+
+    default: Any = REQUIRED
+
+    def parse(self, value: Any, where: Where) -> Any:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+class Number(Field):
+    """A real number in ``interval``; ``_deg`` keys are multiplied by ``scale``."""
+
+    def __init__(self, interval: Interval, default: Any = REQUIRED, scale: float = 1.0) -> None:
+        self.interval, self.default, self.scale = interval, default, scale
+
+    def parse(self, value: Any, where: Where) -> float:
+        if not _is_number(value):
+            raise where.error("must be a number", value)
+        if value not in self.interval:
+            raise where.error(f"must be in {self.interval}", value)
+        return float(value) * self.scale
+
+
+class Integer(Field):
+    """A whole number in ``interval``."""
+
+    def __init__(self, interval: Interval, default: Any = REQUIRED) -> None:
+        self.interval, self.default = interval, default
+
+    def parse(self, value: Any, where: Where) -> int:
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise where.error("must be an integer", value)
+        if value not in self.interval:
+            raise where.error(f"must be an integer in {self.interval}", value)
+        return int(value)
+
+
+class Boolean(Field):
+    def __init__(self, default: Any = REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: Where) -> bool:
+        if not isinstance(value, bool):
+            raise where.error("must be true or false", value)
+        return value
+
+
+class String(Field):
+    """A string, optionally one of ``choices``; ``one_line`` forbids newlines and empties."""
+
+    def __init__(
+        self,
+        choices: tuple[str, ...] | None = None,
+        default: Any = REQUIRED,
+        one_line: bool = False,
+        max_len: int = 1000,
+    ) -> None:
+        self.choices, self.default, self.one_line, self.max_len = (
+            choices,
+            default,
+            one_line,
+            max_len,
+        )
+
+    def parse(self, value: Any, where: Where) -> str:
+        if not isinstance(value, str):
+            raise where.error("must be a string", value)
+        if self.choices is not None and value not in self.choices:
+            raise where.error(f"must be one of {', '.join(map(repr, self.choices))}", value)
+        if self.one_line and (not value.strip() or "\n" in value):
+            raise where.error("must be one non-empty line", value)
+        if len(value) > self.max_len:
+            raise where.error(f"must be at most {self.max_len} characters", value)
+        return value
+
+
+class StringList(Field):
+    """A non-empty list of distinct strings, each one of ``choices``."""
+
+    def __init__(self, choices: tuple[str, ...], default: Any = REQUIRED) -> None:
+        self.choices, self.default = choices, default
+
+    def parse(self, value: Any, where: Where) -> tuple[str, ...]:
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise where.error("must be a list of strings", value)
+        if not value:
+            raise where.error("must name at least one", value)
+        for i, v in enumerate(value):
+            if v not in self.choices:
+                raise where.item(i).error(f"unknown; allowed: {', '.join(self.choices)}", v)
+        if len(set(value)) != len(value):
+            raise where.error("must not repeat a name", value)
+        return tuple(value)
+
+
+class Vector(Field):
+    """A fixed-length list of numbers, each in ``interval``."""
+
+    def __init__(self, length: int, interval: Interval, default: Any = REQUIRED) -> None:
+        self.length, self.interval, self.default = length, interval, default
+
+    def parse(self, value: Any, where: Where) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != self.length:
+            raise where.error(f"must be a list of {self.length} numbers", value)
+        for i, v in enumerate(value):
+            if not _is_number(v):
+                raise where.item(i).error("must be a number", v)
+            if v not in self.interval:
+                raise where.item(i).error(f"must be in {self.interval}", v)
+        return tuple(float(v) for v in value)
+
+
+class Points(Field):
+    """A list of ``[x, y]`` pairs of finite numbers -> float array ``(n, 2)``."""
+
+    def __init__(self, default: Any = REQUIRED, max_count: int = 100_000) -> None:
+        self.default, self.max_count = default, max_count
+
+    def parse(self, value: Any, where: Where) -> np.ndarray:
+        if not isinstance(value, list):
+            raise where.error("must be a list of [x, y] pairs", value)
+        if len(value) > self.max_count:
+            raise where.error(f"must hold at most {self.max_count} points", len(value))
+        for i, p in enumerate(value):
+            if not (isinstance(p, list) and len(p) == 2 and all(map(_is_number, p))):
+                raise where.item(i).error("must be an [x, y] pair of numbers", p)
+            if not all(map(math.isfinite, p)):
+                raise where.item(i).error("must be finite", p)
+        return np.array(value, dtype=float).reshape(-1, 2)
+
+
+class FreeForm(Field):
+    """Any nesting of tables, lists, strings, numbers and booleans (JSON-compatible)."""
+
+    def __init__(self, default: Any = REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: Where) -> Any:
+        if isinstance(value, dict):
+            return {k: self.parse(v, where.child(k)) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self.parse(v, where.item(i)) for i, v in enumerate(value)]
+        if isinstance(value, str | bool | int):
+            return value
+        if isinstance(value, float):
+            if not math.isfinite(value):
+                raise where.error("must be finite", value)
+            return value
+        raise where.error("must be a string, number, boolean, list or table", str(value))
+
+
+@dataclass(frozen=True)
+class Section:
+    """A sub-table with its own schema; an optional section may be left out entirely."""
+
+    schema: Mapping[str, Field | Section]
+    required: bool = True
+
+
+def read_table(data: Any, schema: Mapping[str, Field | Section], where: Where) -> dict[str, Any]:
+    """Check ``data`` against ``schema``; return ``{key: converted value}`` for every key.
+
+    Unknown keys are reported before missing or malformed ones, since a misspelt key
+    is the usual cause of a "missing" one.
+    """
+    if not isinstance(data, dict):
+        raise where.error("must be a table", data)
+    for key in data:
+        if key not in schema:
+            allowed = ", ".join(schema) or "none"
+            raise where.child(key).error(f"unknown key (allowed: {allowed})")
+    out: dict[str, Any] = {}
+    for key, spec in schema.items():
+        at = where.child(key)
+        if isinstance(spec, Section):
+            if key not in data and spec.required:
+                raise at.error("missing section (required)")
+            out[key] = read_table(data.get(key, {}), spec.schema, at)
+        elif key in data:
+            out[key] = spec.parse(data[key], at)
+        elif spec.default is REQUIRED:
+            raise at.error("missing (required)")
+        else:
+            default = spec.default
+            out[key] = default() if isinstance(default, Callable) else _default(spec, default, at)
+    return out
+
+
+def _default(spec: Field, default: Any, where: Where) -> Any:
+    """Defaults are written in file units; pass them through the parser (None stays None)."""
+    if default is None:
+        return None
+    return spec.parse(default, where)
