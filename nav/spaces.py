@@ -1,0 +1,163 @@
+r"""Navigation state spaces implementing :class:`estimators.spaces.Space`.
+
+:class:`UnitQuaternion` is the attitude space: ambient coordinates are a Hamilton unit
+quaternion ``[w, x, y, z]`` (``q_nb``), tangent coordinates a body-frame rotation
+vector, with the right-perturbation chart
+
+.. math::
+
+    q \boxplus \delta = q \otimes \mathrm{Exp}(\delta), \qquad
+    p \boxminus q = \mathrm{Log}(q^* \otimes p),
+
+the same as GTSAM's ``Rot3.retract`` / ``localCoordinates`` with the exponential map.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .quaternion import qconj, qexp, qlog, qmul, qnormalize
+
+Array = NDArray[np.float64]
+
+#: Round-off floor of the weighted tangent sum, in units of eps * sum|w_i|.
+_FLOOR_ULPS = 8.0
+
+__all__ = ["UnitQuaternion"]
+
+
+@dataclass(frozen=True)
+class UnitQuaternion:
+    r"""Attitude as a unit quaternion (ambient dim 4) with a 3-d rotation-vector chart.
+
+    Parameters
+    ----------
+    tol : float
+        Convergence threshold of :meth:`mean` on the norm of the update step (rad).
+    max_iter : int
+        Iteration limit of :meth:`mean`.
+
+    Notes
+    -----
+    ``q`` and ``-q`` are the same attitude everywhere: :func:`~nav.quaternion.qlog`
+    returns the short-way rotation vector, so :meth:`local` and :meth:`mean` are
+    invariant to the sign of any input.
+    """
+
+    tol: float = 1e-13
+    max_iter: int = 50
+
+    @property
+    def ambient_dim(self) -> int:
+        return 4
+
+    @property
+    def dim(self) -> int:
+        return 3
+
+    def retract(self, x: ArrayLike, delta: ArrayLike) -> Array:
+        r"""Right perturbation :math:`x \otimes \mathrm{Exp}(\delta)`, renormalised.
+
+        Parameters
+        ----------
+        x : array_like, shape (..., 4)
+            Unit quaternion(s).
+        delta : array_like, shape (..., 3)
+            Body-frame rotation vector(s); broadcast against ``x``.
+
+        Returns
+        -------
+        ndarray, shape (..., 4)
+        """
+        return qnormalize(qmul(x, qexp(delta)))
+
+    def local(self, x: ArrayLike, y: ArrayLike) -> Array:
+        r"""Body-frame rotation vector from ``x`` to ``y``: :math:`\mathrm{Log}(x^* \otimes y)`.
+
+        The result has norm :math:`\le \pi`, and
+        ``local(x, retract(x, δ)) == δ`` for :math:`|\delta| < \pi`.
+
+        Parameters
+        ----------
+        x, y : array_like, shape (..., 4)
+            Broadcast against each other.
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
+        return qlog(qmul(qconj(x), y))
+
+    def mean(self, points: ArrayLike, weights: ArrayLike) -> Array:
+        r"""Weighted (Karcher) mean in the local chart, by fixed-point iteration.
+
+        Starting from the point with the largest weight (the first on ties),
+
+        .. math::
+
+            \delta = \sum_i w_i\, \mathrm{Log}(q^* \otimes q_i), \qquad
+            q \leftarrow q \otimes \mathrm{Exp}(\delta),
+
+        until :math:`\lVert\delta\rVert <` ``tol`` (each batch element is frozen once
+        it has converged).  When large positive and negative weights cancel (e.g.
+        unscented rules with small :math:`\alpha`, :math:`\sum_i |w_i| \sim 10^6`) the
+        round-off floor of the weighted sum, about :math:`10^{-16} \sum_i |w_i|`, can
+        exceed ``tol``; an element is then also accepted once its step is below
+        :math:`8\,\epsilon \sum_i |w_i|` *and* no longer shrinking (less than halved
+        from the previous iteration), i.e. it has reached the noise floor.  For a
+        convex combination this extra rule never fires before the ``tol`` rule.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., m, 4)
+            Unit quaternions; the sign of each is irrelevant.
+        weights : array_like, shape (m,) or (..., m)
+            Weights summing to one; may be negative.  Broadcast against the batch
+            axes of ``points``.
+
+        Returns
+        -------
+        ndarray, shape (..., 4)
+            Unit quaternion with the sign of the starting point.
+
+        Raises
+        ------
+        ValueError
+            On inconsistent shapes.
+        ArithmeticError
+            If the iteration has not converged after ``max_iter`` steps.
+        """
+        pts = np.asarray(points, dtype=np.float64)
+        w = np.asarray(weights, dtype=np.float64)
+        if pts.ndim < 2 or pts.shape[-1] != 4:
+            raise ValueError(f"points must have shape (..., m, 4), got {pts.shape}")
+        m = pts.shape[-2]
+        if w.ndim < 1 or w.shape[-1] != m:
+            raise ValueError(f"weights must have shape (..., {m}), got {w.shape}")
+        batch = np.broadcast_shapes(pts.shape[:-2], w.shape[:-1])
+        pts = np.broadcast_to(pts, batch + (m, 4))
+        w = np.broadcast_to(w, batch + (m,))
+
+        start = np.argmax(w, axis=-1)
+        q = qnormalize(np.take_along_axis(pts, start[..., None, None], axis=-2)[..., 0, :])
+        floor = _FLOOR_ULPS * np.finfo(np.float64).eps * np.sum(np.abs(w), axis=-1)
+        done = np.zeros(batch, dtype=bool)
+        prev = np.full(batch, np.inf)
+        step_norm = prev
+        for _ in range(self.max_iter):
+            d = qlog(qmul(qconj(q)[..., None, :], pts))  # (..., m, 3)
+            step = np.einsum("...m,...mi->...i", w, d)
+            q = np.where(done[..., None], q, qnormalize(qmul(q, qexp(step))))
+            step_norm = np.where(done, 0.0, np.linalg.norm(step, axis=-1))
+            done |= (step_norm < self.tol) | ((step_norm <= floor) & (step_norm > 0.5 * prev))
+            prev = step_norm
+            if np.all(done):
+                return q
+        raise ArithmeticError(
+            f"UnitQuaternion.mean did not converge in {self.max_iter} iterations "
+            f"(largest last step {np.max(step_norm):.3e} rad, tolerance {self.tol:.1e} rad); "
+            "the weighted cloud may be too spread out for the fixed-point iteration"
+        )
