@@ -1,0 +1,174 @@
+r"""Planar SLAM models: Bailey's car-like vehicle and a range-bearing sensor.
+
+The joint state is :math:`s = [x, y, φ, m_{1x}, m_{1y}, \dots, m_{Nx}, m_{Ny}]` on the
+space ``Wrapped(3 + 2N, (2,))`` (only the heading is an angle).  All functions take
+points as rows and are vectorised over them.
+
+Motion (control :math:`u = [V, G]`, noise :math:`w` added to the control):
+
+.. math::
+
+    x' = x + V dt \cos(G + φ),\quad y' = y + V dt \sin(G + φ),\quad
+    φ' = \mathrm{wrap}(φ + V dt \sin G / WB).
+
+Observation of landmark :math:`m`:
+
+.. math::
+
+    z = \big[\ \|m - p\|,\ \mathrm{wrap}(\operatorname{atan2}(m_y - y, m_x - x) - φ)\ \big].
+
+Inverse observation (augmentation): :math:`m = p + r[\cos(φ + b), \sin(φ + b)]`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimators import Measurement, Noise, Transition, Wrapped, wrap_angle
+from estimators.linalg import Array
+
+
+def state_space(n_landmarks: int) -> Wrapped:
+    """The joint state's space: heading wrapped, everything else Euclidean."""
+    return Wrapped(3 + 2 * n_landmarks, (2,))
+
+
+def observation_space(k: int) -> Wrapped:
+    """Space of ``k`` stacked ``[range, bearing]`` observations."""
+    return Wrapped(2 * k, tuple(range(1, 2 * k, 2)))
+
+
+def car_step(P: Array, V: Array, G: Array, dt: float, wheelbase: float) -> Array:
+    """One step of the car model for poses ``P`` (m, 3) and controls (m,) or scalars."""
+    out = np.empty_like(P)
+    vdt = V * dt
+    out[:, 0] = P[:, 0] + vdt * np.cos(G + P[:, 2])
+    out[:, 1] = P[:, 1] + vdt * np.sin(G + P[:, 2])
+    out[:, 2] = wrap_angle(P[:, 2] + vdt * np.sin(G) / wheelbase)
+    return out
+
+
+def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int = 1
+                 ) -> Transition:
+    r"""Joint-state transition over ``n_steps`` control steps; landmarks stay.
+
+    ``u`` is the (n_steps, 2) block of noisy controls; the noise ``W`` (m, 2·n_steps)
+    holds an independent control error per step, so sigma-point filters propagate
+    points through the exact compounded car model (no re-Gaussianisation between
+    steps).  The EKF's Jacobians chain the per-step ones along the mean path, which
+    is identical to predicting step by step:
+
+    .. math::  F = F_{s} \cdots F_1,\qquad G = [F_s \cdots F_2 G_1,\ \dots,\ G_s].
+    """
+
+    def f(X: Array, u: Array, W: Array) -> Array:
+        Y = X.copy()
+        P = X[:, :3]
+        for i in range(n_steps):
+            P = car_step(P, u[i, 0] + W[:, 2 * i], u[i, 1] + W[:, 2 * i + 1], dt, wheelbase)
+        Y[:, :3] = P
+        return Y
+
+    def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
+        n = x.shape[0]
+        Fv = np.eye(3)
+        Gv = np.zeros((3, 2 * n_steps))
+        p = x[None, :3]
+        for i in range(n_steps):
+            V, Gs = u[i]
+            a = Gs + p[0, 2]
+            Fi = np.eye(3)
+            Fi[0, 2] = -V * dt * np.sin(a)
+            Fi[1, 2] = V * dt * np.cos(a)
+            Gi = np.array([[dt * np.cos(a), -V * dt * np.sin(a)],
+                           [dt * np.sin(a), V * dt * np.cos(a)],
+                           [dt * np.sin(Gs) / wheelbase, V * dt * np.cos(Gs) / wheelbase]])
+            Fv = Fi @ Fv
+            Gv = Fi @ Gv
+            Gv[:, 2 * i:2 * i + 2] = Gi
+            p = car_step(p, V, Gs, dt, wheelbase)
+        F = np.eye(n)
+        F[:3, :3] = Fv
+        Gm = np.zeros((n, 2 * n_steps))
+        Gm[:3] = Gv
+        return F, Gm
+
+    cov = np.kron(np.eye(n_steps), control_cov)
+    return Transition(f, Noise.from_cov(cov), additive=False, jacobian=jacobian)
+
+
+def range_bearing(X: Array, slots: Array) -> Array:
+    """Stacked ``[r, b]`` of the landmarks at state slots ``slots`` (k,) from poses X."""
+    cols = 3 + 2 * np.asarray(slots)
+    dx = X[:, cols] - X[:, :1]
+    dy = X[:, cols + 1] - X[:, 1:2]
+    Z = np.empty((X.shape[0], 2 * len(cols)))
+    Z[:, 0::2] = np.hypot(dx, dy)
+    Z[:, 1::2] = wrap_angle(np.arctan2(dy, dx) - X[:, 2:3])
+    return Z
+
+
+def range_bearing_jacobian(x: Array, slots: Array) -> Array:
+    """Analytic Jacobian (2k, n) of :func:`range_bearing` at one state ``x``."""
+    n = x.shape[0]
+    H = np.zeros((2 * len(slots), n))
+    for i, s in enumerate(slots):
+        c = 3 + 2 * int(s)
+        dx, dy = x[c] - x[0], x[c + 1] - x[1]
+        q = dx * dx + dy * dy
+        r = np.sqrt(q)
+        H[2 * i, [0, 1, c, c + 1]] = [-dx / r, -dy / r, dx / r, dy / r]
+        H[2 * i + 1, [0, 1, 2, c, c + 1]] = [dy / q, -dx / q, -1.0, -dy / q, dx / q]
+    return H
+
+
+def observation_model(slots: Array, obs_cov: Array) -> Measurement:
+    """Batch measurement of the landmarks in ``slots`` (one ``[r, b]`` pair each)."""
+    slots = np.asarray(slots, dtype=int)
+    k = len(slots)
+    cov = np.kron(np.eye(k), obs_cov)
+    return Measurement(lambda X: range_bearing(X, slots), Noise.from_cov(cov),
+                       space=observation_space(k),
+                       jacobian=lambda x: range_bearing_jacobian(x, slots))
+
+
+def landmark_from_observation(P: Array, Z: Array) -> Array:
+    """Inverse observation: landmark positions (m, 2k) from poses (m, 3) and ``Z`` (m, 2k)."""
+    r, b = Z[:, 0::2], Z[:, 1::2]
+    a = P[:, 2:3] + b
+    out = np.empty_like(Z)
+    out[:, 0::2] = P[:, :1] + r * np.cos(a)
+    out[:, 1::2] = P[:, 1:2] + r * np.sin(a)
+    return out
+
+
+def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transition:
+    """Grow the state by the landmarks first seen in ``z_new`` (2k,).
+
+    A transition into the bigger space, with the observation noise entering
+    non-additively: :math:`s' = [s;\\ g(s_v, z + v)]`.  Sigma-point filters draw points
+    over :math:`[s; v]`, so the new cross-covariances with the whole map come out of
+    the same points; the EKF uses the analytic Jacobians.
+    """
+    k = z_new.shape[0] // 2
+    n = 3 + 2 * n_landmarks
+
+    def f(X: Array, u: Array, W: Array) -> Array:
+        return np.hstack([X, landmark_from_observation(X[:, :3], u + W)])
+
+    def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
+        F = np.zeros((n + 2 * k, n))
+        F[:n] = np.eye(n)
+        Gm = np.zeros((n + 2 * k, 2 * k))
+        for i in range(k):
+            r, b = u[2 * i], u[2 * i + 1]
+            a = x[2] + b
+            c, s = np.cos(a), np.sin(a)
+            row = n + 2 * i
+            F[row, [0, 2]] = [1.0, -r * s]
+            F[row + 1, [1, 2]] = [1.0, r * c]
+            Gm[row:row + 2, 2 * i:2 * i + 2] = [[c, -r * s], [s, r * c]]
+        return F, Gm
+
+    return Transition(f, Noise.from_cov(np.kron(np.eye(k), obs_cov)), additive=False,
+                      space=state_space(n_landmarks + k), jacobian=jacobian)

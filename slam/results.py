@@ -1,0 +1,89 @@
+"""Result values passed from the Monte Carlo runs to scoring and reports.
+
+A worker reduces each estimator's output on one run to a :class:`RunScores`
+(errors and standard deviations per step, NEES, landmark errors, NIS, timing) so
+that little crosses process boundaries; run 0 also keeps full :class:`Track`\\ s for
+the plots and trajectory files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+ODOMETRY = "odometry"
+REFERENCE = "gtsam"
+
+
+@dataclass(frozen=True)
+class Track:
+    """One estimator's full output on one run (kept for run 0 only).
+
+    poses : (K + 1, 3) ``[x, y, φ]`` per step; pose_cov : (K + 1, 3, 3), NaN where the
+    estimator gives none (the smoother between its epochs); landmark_ids (L,),
+    landmarks (L, 2), landmark_cov (L, 2, 2).
+    """
+
+    name: str
+    poses: Array
+    pose_cov: Array
+    landmark_ids: NDArray[np.int64]
+    landmarks: Array
+    landmark_cov: Array
+
+
+@dataclass(frozen=True)
+class RunScores:
+    """One estimator on one run, reduced.
+
+    err : (E, 3) at the filter epochs: estimate minus truth ``[ex, ey, eφ]`` (m, m, rad; φ wrapped).
+    sigma : (E, 3) the estimator's own standard deviations (NaN where none).
+    nees : (E,) vehicle-pose NEES (3 dof), NaN where the covariance is singular
+        or absent.
+    lm_err : (L,) final landmark position errors (m).
+    nis, nis_dof : per batch update.
+    time_s : wall time; steps : filter epochs processed (predict + update cycles).
+    diverged : bool; failure : reason.
+    """
+
+    name: str
+    err: Array
+    sigma: Array
+    nees: Array
+    lm_err: Array
+    nis: Array
+    nis_dof: NDArray[np.int64]
+    time_s: float
+    steps: int
+    diverged: bool = False
+    failure: str | None = None
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """Everything one Monte Carlo run returns: scores per estimator (and tracks)."""
+
+    run: int
+    scores: dict[str, RunScores]
+    tracks: dict[str, Track] = field(default_factory=dict)
+    truth: Array | None = None
+    true_landmarks: Array | None = None
+    times: Array | None = None
+
+
+@dataclass(frozen=True)
+class CampaignResult:
+    """A whole campaign: the world's identity, the runs, and the summary dict.
+
+    ``summary`` follows the ``summary.json`` contract (see DESIGN / README);
+    ``outcomes`` keeps every run's :class:`RunScores` for plots (errors vs time).
+    """
+
+    world: Any
+    summary: dict[str, Any]
+    outcomes: list[RunOutcome]
