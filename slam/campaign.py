@@ -53,9 +53,34 @@ def run_seeds(seed: int, runs: int) -> list[np.random.SeedSequence]:
 
 def run_task(args: tuple) -> RunOutcome:
     """The one task function every executor runs: ``(world, run, seed_seq, filters,
-    keep_tracks)`` -> :class:`RunOutcome`."""
+    keep_tracks)`` -> :class:`RunOutcome`.  It pins the maths library to one thread
+    itself, so a run computes the same bits in a local pool or on a Dask worker."""
+    from threadpoolctl import threadpool_limits
+
     world = args[0]
-    return SCENARIOS[world.kind].run_once(*args)
+    with threadpool_limits(1):
+        return SCENARIOS[world.kind].run_once(*args)
+
+
+def dask_mapper(address: str):
+    """A ``mapper`` for :func:`run_campaign` over a Dask distributed scheduler.
+
+    Returns ``(mapper, client)``; close the client when done.  Results are yielded as
+    they complete (feeding the progress bar); the campaign sorts them by run.
+    """
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as exc:  # the [dask] extra is not installed
+        raise RuntimeError("--scheduler needs the [dask] extra: "
+                           "pip install -e '.[dask]'") from exc
+    client = Client(address)
+
+    def mapper(fn, tasks):
+        futures = client.map(fn, list(tasks), pure=False)
+        for fut in as_completed(futures):
+            yield fut.result()
+
+    return mapper, client
 
 
 def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[tuple]:
