@@ -1,0 +1,152 @@
+"""The ``slam`` command line end to end on small worlds."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+from click.testing import CliRunner
+
+from slam import cli
+from slam.report import summary_json
+
+SMALL_WORLD = """
+kind = "planar-slam"
+description = "CLI test world: 30 m square, 4 landmarks"
+runs = 2
+seed = 5
+
+[map]
+bounds_m = [-20.0, 50.0, -20.0, 50.0]
+landmarks = [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0], [-6.0, 15.0]]
+waypoints = [[30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]]
+
+[vehicle]
+loops = 1
+start_xy_m = [0.0, 0.0]
+start_heading_deg = 0.0
+
+[filters]
+names = ["ekf", "srckf"]
+"""
+
+
+def write_world(tmp_path, text=SMALL_WORLD, name="small.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_run_small_world_end_to_end(tmp_path):
+    world = write_world(tmp_path)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli.main, ["run", str(world), "--out", str(out), "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    for row in ("ekf", "srckf", "odometry", "gtsam"):
+        assert re.search(rf"^{row}\s", res.output, re.M)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["world"] == "small" and summary["runs"] == 2 and summary["seed"] == 5
+    assert set(summary["filters"]) == {"ekf", "srckf"}
+    for f in ("report.md", "report.html", "map.png", "errors_xy.png", "nees.png",
+              "srckf.tum", "truth.tum"):
+        assert (out / f).stat().st_size > 0
+
+
+def test_filters_and_runs_options_override_the_world(tmp_path):
+    world = write_world(tmp_path)
+    out = tmp_path / "o"
+    res = CliRunner().invoke(cli.main, ["run", str(world), "--filters", "srcdkf", "--runs",
+                                        "1", "--seed", "3", "--out", str(out), "--workers",
+                                        "1", "--no-plots"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert list(summary["filters"]) == ["srcdkf"] and summary["runs"] == 1
+    assert summary["seed"] == 3 and not (out / "map.png").exists()
+
+
+BAD_WORLDS = [
+    ("runs = 2", "runs = 0", "runs"),
+    ("loops = 1", "loops = -1", "[vehicle] loops"),
+    ('names = ["ekf", "srckf"]', 'names = ["ekf", "kalman9000"]', "[filters] names"),
+    ("[vehicle]", "[vehicle]\nspeed_mps = -3.0", "[vehicle] speed_mps"),
+    ("[vehicle]", "[vehicle]\nwheel_base = 4.0", "[vehicle] wheel_base"),
+    ("[30.0, 30.0], [0.0, 30.0]", "[30.0, 300.0], [0.0, 30.0]", "[map] waypoints"),
+    ("bounds_m = [-20.0, 50.0, -20.0, 50.0]", "bounds_m = 3", "[map] bounds_m"),
+    ("start_heading_deg = 0.0", 'start_heading_deg = "east"', "[vehicle] start_heading_deg"),
+    ('kind = "planar-slam"', 'kind = "planar-slam', "small.toml"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "key"), BAD_WORLDS)
+def test_malformed_world_exits_2_naming_the_key_and_writes_nothing(tmp_path, old, new, key):
+    assert old in SMALL_WORLD
+    world = write_world(tmp_path, SMALL_WORLD.replace(old, new, 1))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli.main, ["run", str(world), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "small.toml" in res.output and key in res.output
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [["--filters", "ekf,nope"], ["--runs", "0"],
+                                  ["--seed", "-1"], ["--workers", "0"], ["nosuchworld"]])
+def test_bad_options_exit_2(tmp_path, args):
+    world = write_world(tmp_path)
+    argv = ["run"] + ([] if args == ["nosuchworld"] else [str(world)]) + args
+    res = CliRunner().invoke(cli.main, argv + ["--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    assert "error:" in res.output and not (tmp_path / "o").exists()
+
+
+def test_interrupted_run_leaves_no_partial_output(tmp_path, monkeypatch):
+    world = write_world(tmp_path)
+    out = tmp_path / "out"
+    import slam.campaign
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(slam.campaign, "run_campaign", interrupted)
+    res = CliRunner().invoke(cli.main, ["run", str(world), "--out", str(out)])
+    assert res.exit_code != 0
+    assert not out.exists()
+    assert not list(tmp_path.glob(".out*"))
+
+
+def test_worlds_lists_the_bundled_worlds():
+    res = CliRunner().invoke(cli.main, ["worlds"])
+    assert res.exit_code == 0
+    for name in ("bailey", "webmap", "densemap"):
+        assert re.search(rf"^{name}\s+planar-slam", res.output, re.M)
+
+
+def _strip_timings(obj):
+    """Drop wall-clock fields: the only keys that may differ between executors."""
+    if isinstance(obj, dict):
+        return {k: _strip_timings(v) for k, v in obj.items() if not k.startswith("time")}
+    return obj
+
+
+def test_dask_local_cluster_matches_the_local_pool():
+    distributed = pytest.importorskip("dask.distributed")
+    from slam.campaign import dask_mapper, run_campaign
+    from worlds.testing import small_world
+
+    world = small_world(runs=3, filters=("ekf", "srckf"))
+    local = run_campaign(world, workers=2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        mapper, client = dask_mapper(cluster.scheduler_address)
+        try:
+            seen = []
+            remote = run_campaign(world, mapper=mapper, progress=seen.append)
+        finally:
+            client.close()
+    assert len(seen) == 3
+    assert summary_json(_strip_timings(remote.summary)) == summary_json(
+        _strip_timings(local.summary))
+    # and more than the summary: every run's per-step errors are bit-identical
+    for a, b in zip(local.outcomes, remote.outcomes):
+        for name in a.scores:
+            assert a.scores[name].err.tobytes() == b.scores[name].err.tobytes()
