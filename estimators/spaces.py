@@ -66,9 +66,8 @@ def wrap_angle(a: Array) -> Array:
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
-@dataclass(frozen=True)
-class Euclidean:
-    """:math:`\\mathbb{R}^n` with ordinary addition."""
+class _Flat:
+    """Spaces whose points are ``n`` plain numbers: ambient and tangent dims are ``n``."""
 
     n: int
 
@@ -79,6 +78,13 @@ class Euclidean:
     @property
     def dim(self) -> int:
         return self.n
+
+
+@dataclass(frozen=True)
+class Euclidean(_Flat):
+    """:math:`\\mathbb{R}^n` with ordinary addition."""
+
+    n: int
 
     def retract(self, x: Array, delta: Array) -> Array:
         return x + delta
@@ -91,7 +97,7 @@ class Euclidean:
 
 
 @dataclass(frozen=True)
-class Angle:
+class Angle(_Flat):
     """``n`` independent angles (radians), each wrapped to ``[-π, π)``.
 
     The tangent chart is a translation, so the weighted mean in the chart at any
@@ -99,14 +105,6 @@ class Angle:
     """
 
     n: int = 1
-
-    @property
-    def ambient_dim(self) -> int:
-        return self.n
-
-    @property
-    def dim(self) -> int:
-        return self.n
 
     def retract(self, x: Array, delta: Array) -> Array:
         return wrap_angle(x + delta)
@@ -171,7 +169,7 @@ def is_euclidean(space: Space) -> bool:
 
 
 @dataclass(frozen=True)
-class Wrapped:
+class Wrapped(_Flat):
     """:math:`\\mathbb{R}^n` whose coordinates listed in ``angles`` are wrapped angles.
 
     A flat alternative to a long :class:`Product` of :class:`Euclidean` and
@@ -180,14 +178,6 @@ class Wrapped:
 
     n: int
     angles: tuple[int, ...]
-
-    @property
-    def ambient_dim(self) -> int:
-        return self.n
-
-    @property
-    def dim(self) -> int:
-        return self.n
 
     def _wrap(self, v: Array) -> Array:
         out = np.array(v, dtype=float, copy=True)
