@@ -135,11 +135,16 @@ class Measurement:
 @dataclass(frozen=True)
 class Innovation:
     r"""What an update saw: innovation :math:`\nu = z \boxminus \hat z`, the lower factor of
-    its covariance, and the normalised innovation squared :math:`\nu^\top S^{-1}\nu`."""
+    its covariance, and the normalised innovation squared :math:`\nu^\top S^{-1}\nu`.
+
+    ``hinf_fallback`` is True when an H∞ update (:mod:`estimators.hinf`) found its
+    Riccati existence condition violated and fell back to the Kalman update.
+    """
 
     nu: Array
     sqrt_cov: Array
     nis: float
+    hinf_fallback: bool = False
 
     @property
     def cov(self) -> Array:
