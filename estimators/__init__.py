@@ -1,13 +1,16 @@
 """Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
 
-from .filters import FILTER_NAMES, Filter, make_filter
+from .filters import FILTER_NAMES, ROBUST_FILTER_NAMES, Filter, make_filter
+from .hinf import HInfinityFilter, RiccatiConditionError
+from .homm import HighOrderMoment
 from .linalg import NotPositiveDefiniteError, chol, chol_update, svd_factor, tria
 from .models import Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
 from .rules import CentralDifference, Cubature, Unscented
 from .spaces import Angle, Euclidean, Product, Space, Wrapped, wrap_angle
 
 __all__ = [
-    "FILTER_NAMES", "Filter", "make_filter", "NotPositiveDefiniteError", "chol", "chol_update",
+    "FILTER_NAMES", "ROBUST_FILTER_NAMES", "Filter", "make_filter", "HInfinityFilter",
+    "RiccatiConditionError", "HighOrderMoment", "NotPositiveDefiniteError", "chol", "chol_update",
     "svd_factor", "tria", "Gaussian", "Innovation", "Measurement", "Noise", "SqrtGaussian",
     "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
     "Product", "Space", "Wrapped", "wrap_angle",
