@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import base64
 import html
+import importlib
 import json
 import math
 import os
@@ -29,6 +30,7 @@ import tempfile
 import uuid
 import warnings
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -192,18 +194,18 @@ def results_table(summary: dict[str, Any]) -> str:
 
 
 def text_table(summary: dict[str, Any]) -> str:
-    """The results table as aligned plain text (for the terminal)."""
-    return plain_table(RESULT_COLUMNS, result_rows(summary))
+    """The campaign's results table as aligned plain text (for the terminal)."""
+    return kind_report(summary.get("kind", "planar-slam")).text_table(summary)
 
 
 # --------------------------------------------------------------------------- report text
 
-def _title(summary: dict[str, Any], world: Any) -> tuple[str, str, str]:
+def _title(summary: dict[str, Any], world: Any, what: str) -> tuple[str, str, str]:
     name = summary.get("world", getattr(world, "name", "?"))
     description = getattr(world, "description", "")
     facts = (f"{summary.get('runs', '?')} Monte Carlo runs, seed {summary.get('seed', '?')}, "
              f"world kind `{summary.get('kind', getattr(world, 'kind', '?'))}`")
-    return f"{name}: planar SLAM campaign", description, facts
+    return f"{name}: {what}", description, facts
 
 
 def _paper_note(summary: dict[str, Any]) -> str:
@@ -236,25 +238,77 @@ FIGURE_CAPTIONS = {
 }
 
 
+@dataclass(frozen=True)
+class Section:
+    """One part of a report: a heading, optionally a table, optionally a paragraph."""
+
+    title: str
+    header: Sequence[str] | None = None
+    rows: Sequence[Sequence[str]] = ()
+    text: str = ""
+
+
+@dataclass(frozen=True)
+class KindReport:
+    """How to report one world kind: what the campaign is, its sections (tables and
+    notes), its figures (file name -> (draw function, caption)), its terminal table,
+    and any extra files (e.g. trajectories)."""
+
+    what: str
+    sections: Callable[[dict[str, Any]], list[Section]]
+    figures: Callable[[], dict[str, tuple[Callable[[CampaignResult, Path], None], str]]]
+    text_table: Callable[[dict[str, Any]], str]
+    extra_files: Callable[[CampaignResult, Path], list[str]] = lambda result, out: []
+
+
+def planar_sections(summary: dict[str, Any]) -> list[Section]:
+    """Results, the paper's ranges next to ours, and how to read them."""
+    header, rows = paper_rows(summary)
+    paper = (Section("Paper vs ours: vehicle position error ranges", header, rows,
+                     _paper_note(summary)) if rows else
+             Section("Paper vs ours: vehicle position error ranges",
+                     text="The world file quotes no error ranges from a paper."))
+    return [Section("Results", RESULT_COLUMNS, result_rows(summary)), paper,
+            Section("How to read this", text=HOW_TO_READ)]
+
+
+def planar_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """File name -> (function drawing it, caption); looked up at call time."""
+    return {name: (fn, FIGURE_CAPTIONS[name]) for name, fn in figure_writers().items()}
+
+
+def kind_report(kind: str) -> KindReport:
+    """The report description of a world kind (other kinds live in their own modules)."""
+    if kind == "planar-slam":
+        return KindReport("planar SLAM campaign", planar_sections, planar_figures,
+                          lambda s: plain_table(RESULT_COLUMNS, result_rows(s)),
+                          write_tum_files)
+    module = {"attitude": "slam.attitude_report", "drone-slam": "slam.drone_report"}.get(kind)
+    if module is None:
+        raise ValueError(f"no report for world kind {kind!r}")
+    return importlib.import_module(module).REPORT
+
+
 def report_markdown(result: CampaignResult, figures: Sequence[str]) -> str:
-    """``report.md``: title, tables, notes and the figures (as relative image links)."""
+    """``report.md``: title, sections and the figures (as relative image links)."""
     s = result.summary
-    title, description, facts = _title(s, result.world)
+    kr = kind_report(s.get("kind", "planar-slam"))
+    title, description, facts = _title(s, result.world, kr.what)
     parts = [f"# {title}", ""]
     if description:
         parts += [description, ""]
-    parts += [facts + ".", "", "## Results", "", results_table(s), ""]
-    header, rows = paper_rows(s)
-    parts += ["## Paper vs ours: vehicle position error ranges", ""]
-    if rows:
-        parts += [markdown_table(header, rows), "", _paper_note(s), ""]
-    else:
-        parts += ["The world file quotes no error ranges from a paper.", ""]
-    parts += ["## How to read this", "", HOW_TO_READ, ""]
+    parts += [facts + ".", ""]
+    for sec in kr.sections(s):
+        parts += [f"## {sec.title}", ""]
+        if sec.header is not None:
+            parts += [markdown_table(sec.header, sec.rows), ""]
+        if sec.text:
+            parts += [sec.text, ""]
+    captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
         parts += ["## Figures", ""]
         for f in figures:
-            parts += [f"![{f}]({f})", "", f"*{FIGURE_CAPTIONS.get(f, f)}*", ""]
+            parts += [f"![{f}]({f})", "", f"*{captions.get(f, f)}*", ""]
     return "\n".join(parts)
 
 
@@ -290,28 +344,28 @@ def _html_text(text: str) -> str:
 def report_html(result: CampaignResult, figures: dict[str, bytes]) -> str:
     """``report.html``: the report with figures embedded as base64 PNG data URIs."""
     s = result.summary
-    title, description, facts = _title(s, result.world)
+    kr = kind_report(s.get("kind", "planar-slam"))
+    title, description, facts = _title(s, result.world, kr.what)
     e = html.escape
     out = ["<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',
            f"<title>{e(title)}</title>", f"<style>{_CSS}</style>", "</head>", "<body>",
            f"<h1>{e(title)}</h1>"]
     if description:
         out.append(f"<p>{e(description)}</p>")
-    out += [f"<p>{_html_text(facts)}.</p>", "<h2>Results</h2>",
-            html_table(RESULT_COLUMNS, result_rows(s))]
-    header, rows = paper_rows(s)
-    out.append("<h2>Paper vs ours: vehicle position error ranges</h2>")
-    if rows:
-        out += [html_table(header, rows), f"<p>{e(_paper_note(s))}</p>"]
-    else:
-        out.append("<p>The world file quotes no error ranges from a paper.</p>")
-    out += ["<h2>How to read this</h2>", f"<p>{_html_text(HOW_TO_READ)}</p>"]
+    out.append(f"<p>{_html_text(facts)}.</p>")
+    for sec in kr.sections(s):
+        out.append(f"<h2>{e(sec.title)}</h2>")
+        if sec.header is not None:
+            out.append(html_table(sec.header, sec.rows))
+        if sec.text:
+            out.append(f"<p>{_html_text(sec.text)}</p>")
+    captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
         out.append("<h2>Figures</h2>")
         for name, png in figures.items():
             data = base64.b64encode(png).decode("ascii")
             out += ["<figure>", f'<img alt="{e(name)}" src="data:image/png;base64,{data}">',
-                    f"<figcaption>{e(FIGURE_CAPTIONS.get(name, name))}</figcaption>",
+                    f"<figcaption>{e(captions.get(name, name))}</figcaption>",
                     "</figure>"]
     out += ["</body>", "</html>", ""]
     return "\n".join(out)
@@ -652,17 +706,18 @@ def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
 
 def render(result: CampaignResult, out_dir: Path, *, plots: bool = True) -> list[str]:
     """Write every output file into the existing folder ``out_dir`` (not atomic)."""
+    kr = kind_report(result.summary.get("kind", "planar-slam"))
     (out_dir / SUMMARY).write_text(summary_json(result.summary), encoding="utf-8")
     figures: dict[str, bytes] = {}
     if plots:
-        for name, plot in figure_writers().items():
+        for name, (plot, _) in kr.figures().items():
             plot(result, out_dir / name)
             figures[name] = (out_dir / name).read_bytes()
     (out_dir / "report.md").write_text(report_markdown(result, list(figures)),
                                        encoding="utf-8")
     (out_dir / "report.html").write_text(report_html(result, figures), encoding="utf-8")
-    tum = write_tum_files(result, out_dir)
-    return [SUMMARY, "report.md", "report.html", *figures, *tum]
+    extra = kr.extra_files(result, out_dir)
+    return [SUMMARY, "report.md", "report.html", *figures, *extra]
 
 
 def _default_dir_mode() -> int:
