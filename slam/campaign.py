@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .attitude_scenario import run_once as attitude_run_once
+from .attitude_scenario import summarize_attitude
 from .planar_scenario import run_once as planar_run_once
 from .planar_scenario import summarize_planar
 from .results import CampaignResult, RunOutcome
@@ -33,6 +35,7 @@ class Scenario:
 
 SCENARIOS: dict[str, Scenario] = {
     "planar-slam": Scenario(planar_run_once, summarize_planar),
+    "attitude": Scenario(attitude_run_once, summarize_attitude),
 }
 
 
