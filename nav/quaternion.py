@@ -18,6 +18,8 @@ vectors ``(..., 3)``, matrices ``(..., 3, 3)``.  Inputs are never modified.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -46,6 +48,24 @@ __all__ = [
 
 def _f(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=np.float64)
+
+
+def _product_table() -> Array:
+    """``T`` (16, 4) with ``p ⊗ q = vec(p qᵀ) @ T``: entry ``(4i + j, k)`` is the sign
+    with which :math:`p_i q_j` enters component :math:`k` of the Hamilton product."""
+    T = np.zeros((16, 4))
+    for i, j, k, sign in (
+        (0, 0, 0, 1), (1, 1, 0, -1), (2, 2, 0, -1), (3, 3, 0, -1),
+        (0, 1, 1, 1), (1, 0, 1, 1), (2, 3, 1, 1), (3, 2, 1, -1),
+        (0, 2, 2, 1), (1, 3, 2, -1), (2, 0, 2, 1), (3, 1, 2, 1),
+        (0, 3, 3, 1), (1, 2, 3, 1), (2, 1, 3, -1), (3, 0, 3, 1),
+    ):
+        T[4 * i + j, k] = sign
+    T.setflags(write=False)
+    return T
+
+
+_PRODUCT_TABLE = _product_table()
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -102,11 +122,8 @@ def qmul(p: ArrayLike, q: ArrayLike) -> Array:
     ndarray, shape (..., 4)
     """
     p, q = _f(p), _f(q)
-    pw, pv = p[..., :1], p[..., 1:]
-    qw, qv = q[..., :1], q[..., 1:]
-    w = pw * qw - np.sum(pv * qv, axis=-1, keepdims=True)
-    v = pw * qv + qw * pv + _cross(pv, qv)
-    return np.concatenate([w, v], axis=-1)
+    outer = p[..., :, None] * q[..., None, :]  # p_i q_j, then one (16, 4) matmul
+    return outer.reshape(outer.shape[:-2] + (16,)) @ _PRODUCT_TABLE
 
 
 def qconj(q: ArrayLike) -> Array:
@@ -136,7 +153,9 @@ def qnormalize(q: ArrayLike) -> Array:
     ndarray, shape (..., 4)
     """
     q = _f(q)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    if q.ndim == 1:
+        return q / math.sqrt(float(q @ q))
+    return q / np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
 
 
 def qexp(rotvec: ArrayLike) -> Array:
@@ -162,12 +181,29 @@ def qexp(rotvec: ArrayLike) -> Array:
         Unit quaternion.
     """
     r = _f(rotvec)
-    t2 = np.sum(r * r, axis=-1)
+    if r.ndim == 1:  # one rotation vector: scalar arithmetic, same branches
+        t2 = float(r @ r)
+        if t2 < SMALL_ANGLE * SMALL_ANGLE:
+            k = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
+            w = 1.0 - t2 / 8.0 + t2 * t2 / 384.0 - t2 * t2 * t2 / 46080.0
+        else:
+            t = math.sqrt(t2)
+            k, w = math.sin(0.5 * t) / t, math.cos(0.5 * t)
+        return np.array([w, k * r[0], k * r[1], k * r[2]])
+    t2 = np.einsum("...i,...i->...", r, r)
+    series = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
+    out = np.empty(r.shape[:-1] + (4,))
+    if t2.max(initial=0.0) < SMALL_ANGLE * SMALL_ANGLE:  # every angle takes the series
+        out[..., 0] = 1.0 - t2 / 8.0 + t2 * t2 / 384.0 - t2 * t2 * t2 / 46080.0
+        out[..., 1:] = series[..., None] * r
+        return out
     t = np.sqrt(t2)
     small = t < SMALL_ANGLE
     safe_t = np.where(small, 1.0, t)
-    k = np.where(small, 0.5 - t2 / 48.0 + t2 * t2 / 3840.0, np.sin(0.5 * safe_t) / safe_t)
-    return np.concatenate([np.cos(0.5 * t)[..., None], k[..., None] * r], axis=-1)
+    k = np.where(small, series, np.sin(0.5 * safe_t) / safe_t)
+    out[..., 0] = np.cos(0.5 * t)
+    out[..., 1:] = k[..., None] * r
+    return out
 
 
 def qlog(q: ArrayLike) -> Array:
@@ -197,9 +233,15 @@ def qlog(q: ArrayLike) -> Array:
         Rotation vector with norm in :math:`[0, \pi]`.
     """
     q = _f(q)
-    q = np.where(q[..., :1] < 0.0, -q, q)
-    w, v = q[..., 0], q[..., 1:]
-    n = np.linalg.norm(v, axis=-1)
+    v = q[..., 1:]
+    n2 = np.einsum("...i,...i->...", v, v)
+    w = q[..., 0]
+    if np.all(n2 < (SMALL_ANGLE * SMALL_ANGLE) * (w * w)):  # every rotation takes the series
+        s2 = n2 / (w * w)  # w² > 0 here, even where w² would underflow elsewhere
+        return ((2.0 / w) * (1.0 - s2 / 3.0 + s2 * s2 / 5.0))[..., None] * v
+    sign = np.where(w < 0.0, -1.0, 1.0)  # the w >= 0 representative
+    w = sign * w
+    n = np.sqrt(n2)
     small = n < SMALL_ANGLE * w
     w_small = np.where(small, w, 1.0)  # small implies w > 0
     s2 = np.where(small, (n / w_small) ** 2, 0.0)
@@ -209,7 +251,7 @@ def qlog(q: ArrayLike) -> Array:
         (2.0 / w_small) * (1.0 - s2 / 3.0 + s2 * s2 / 5.0),
         2.0 * np.arctan2(n, w) / safe_n,
     )
-    return k[..., None] * v
+    return (sign * k)[..., None] * v
 
 
 def qrotate(q: ArrayLike, v: ArrayLike) -> Array:

@@ -94,7 +94,8 @@ class UnitQuaternion:
     def mean(self, points: ArrayLike, weights: ArrayLike) -> Array:
         r"""Weighted (Karcher) mean in the local chart, by fixed-point iteration.
 
-        Starting from the point with the largest weight (the first on ties),
+        Starting from the weighted chordal mean of the points sign-aligned with the
+        largest-weight point (the first on ties),
 
         .. math::
 
@@ -121,7 +122,7 @@ class UnitQuaternion:
         Returns
         -------
         ndarray, shape (..., 4)
-            Unit quaternion with the sign of the starting point.
+            Unit quaternion on the side of the largest-weight point.
 
         Raises
         ------
@@ -137,12 +138,18 @@ class UnitQuaternion:
         m = pts.shape[-2]
         if w.ndim < 1 or w.shape[-1] != m:
             raise ValueError(f"weights must have shape (..., {m}), got {w.shape}")
+        if pts.ndim == 2 and w.ndim == 1:
+            return self._mean_one(pts, w)
         batch = np.broadcast_shapes(pts.shape[:-2], w.shape[:-1])
         pts = np.broadcast_to(pts, batch + (m, 4))
         w = np.broadcast_to(w, batch + (m,))
 
         start = np.argmax(w, axis=-1)
-        q = qnormalize(np.take_along_axis(pts, start[..., None, None], axis=-2)[..., 0, :])
+        ref = np.take_along_axis(pts, start[..., None, None], axis=-2)  # (..., 1, 4)
+        # start from the chordal mean of the points sign-aligned with ``ref``: within
+        # O(spread³) of the Karcher mean, so tight clouds converge in one step
+        aligned = pts * np.where(np.sum(pts * ref, axis=-1) < 0.0, -1.0, 1.0)[..., None]
+        q = qnormalize(np.einsum("...m,...mi->...i", w, aligned))
         floor = _FLOOR_ULPS * np.finfo(np.float64).eps * np.sum(np.abs(w), axis=-1)
         done = np.zeros(batch, dtype=bool)
         prev = np.full(batch, np.inf)
@@ -159,5 +166,25 @@ class UnitQuaternion:
         raise ArithmeticError(
             f"UnitQuaternion.mean did not converge in {self.max_iter} iterations "
             f"(largest last step {np.max(step_norm):.3e} rad, tolerance {self.tol:.1e} rad); "
+            "the weighted cloud may be too spread out for the fixed-point iteration"
+        )
+
+    def _mean_one(self, pts: Array, w: Array) -> Array:
+        """:meth:`mean` for one cloud ``(m, 4)``: the same iteration and stopping rules
+        with scalar bookkeeping (the common case inside a filter, ~3× faster)."""
+        ref = pts[int(np.argmax(w))]
+        q = qnormalize(w @ (pts * np.where(pts @ ref < 0.0, -1.0, 1.0)[:, None]))
+        floor = _FLOOR_ULPS * np.finfo(np.float64).eps * float(np.abs(w).sum())
+        prev = step_norm = np.inf
+        for _ in range(self.max_iter):
+            step = w @ qlog(qmul(qconj(q), pts))
+            q = qnormalize(qmul(q, qexp(step)))
+            step_norm = float(np.sqrt(step @ step))
+            if step_norm < self.tol or (step_norm <= floor and step_norm > 0.5 * prev):
+                return q
+            prev = step_norm
+        raise ArithmeticError(
+            f"UnitQuaternion.mean did not converge in {self.max_iter} iterations "
+            f"(last step {step_norm:.3e} rad, tolerance {self.tol:.1e} rad); "
             "the weighted cloud may be too spread out for the fixed-point iteration"
         )

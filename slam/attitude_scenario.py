@@ -5,9 +5,6 @@ State and models
 The state is ``[q_nb, b]`` on ``Product([UnitQuaternion(), Euclidean(3)])`` (ambient 7,
 tangent 6): attitude error :math:`q = \hat q \otimes \mathrm{Exp}(\delta\theta)` (body frame,
 right perturbation, as GTSAM's ``Rot3.retract``), bias error :math:`b = \hat b + \delta b`.
-The quaternion factor is :class:`FastUnitQuaternion`, a ``UnitQuaternion`` with the same
-chart and Karcher mean computed by leaner kernels (see below; checked against
-``nav`` in the tests).
 
 * **Time update, one per star interval.**  :func:`interval_transition` builds one
   :class:`~estimators.Transition` whose ``f(X, u)`` carries every sigma point (rows of
@@ -76,140 +73,7 @@ from .scoring import anees_band
 Array = NDArray[np.float64]
 
 
-# --------------------------------------------------------------------------- fast kernels
-#
-# A campaign makes millions of quaternion-kernel calls on clouds of 12-13 points, where
-# nav.quaternion's general broadcasting code (np.stack, several temporaries per call)
-# costs more than the arithmetic (qmul: 25 µs there, 5 µs here).  These kernels compute
-# the same maps for this module only: the Hamilton product as one outer product and one
-# 16x4 matmul, Exp and Log with the same series switch-over as nav.quaternion (plus a
-# scalar path for a single vector).  tests/test_attitude.py checks them against
-# nav.quaternion and nav.spaces.UnitQuaternion.
-
-def _product_table() -> Array:
-    """``T`` (16, 4) with ``p ⊗ q = vec(p qᵀ) @ T`` (Hamilton, scalar first)."""
-    T = np.zeros((16, 4))
-    rows = (  # (i, j, k, sign): p_i q_j contributes sign to component k
-        (0, 0, 0, 1), (1, 1, 0, -1), (2, 2, 0, -1), (3, 3, 0, -1),
-        (0, 1, 1, 1), (1, 0, 1, 1), (2, 3, 1, 1), (3, 2, 1, -1),
-        (0, 2, 2, 1), (1, 3, 2, -1), (2, 0, 2, 1), (3, 1, 2, 1),
-        (0, 3, 3, 1), (1, 2, 3, 1), (2, 1, 3, -1), (3, 0, 3, 1),
-    )
-    for i, j, k, sign in rows:
-        T[4 * i + j, k] = sign
-    T.setflags(write=False)
-    return T
-
-
-_QMUL_TABLE = _product_table()
-_CONJ = np.array([1.0, -1.0, -1.0, -1.0])
-_SMALL = 1e-4  # as nav.quaternion.SMALL_ANGLE
-
-
-def fast_qmul(p: Array, q: Array) -> Array:
-    """Hamilton product ``p ⊗ q`` of ``(..., 4)`` arrays (broadcasting)."""
-    o = p[..., :, None] * q[..., None, :]
-    return o.reshape(o.shape[:-2] + (16,)) @ _QMUL_TABLE
-
-
-def fast_qexp(r: Array, out: Array | None = None) -> Array:
-    """``Exp`` of rotation vectors ``(..., 3)`` -> unit quaternions ``(..., 4)`` (into
-    ``out`` when given)."""
-    if r.ndim == 1 and out is None:  # one rotation vector: scalar arithmetic
-        t2 = float(r @ r)
-        if t2 < _SMALL * _SMALL:
-            k = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
-            w = 1.0 - t2 / 8.0 + t2 * t2 / 384.0 - t2 * t2 * t2 / 46080.0
-        else:
-            t = math.sqrt(t2)
-            k, w = math.sin(0.5 * t) / t, math.cos(0.5 * t)
-        return np.array([w, k * r[0], k * r[1], k * r[2]])
-    t2 = np.einsum("...i,...i->...", r, r)
-    series = 0.5 - t2 / 48.0 + t2 * t2 / 3840.0
-    if out is None:
-        out = np.empty(r.shape[:-1] + (4,))
-    if t2.max(initial=0.0) < _SMALL * _SMALL:  # every angle takes the series branch
-        k = series
-        out[..., 0] = 1.0 - t2 / 8.0 + t2 * t2 / 384.0 - t2 * t2 * t2 / 46080.0
-    else:
-        t = np.sqrt(t2)
-        small = t < _SMALL
-        safe = np.where(small, 1.0, t)
-        k = np.where(small, series, np.sin(0.5 * safe) / safe)
-        out[..., 0] = np.cos(0.5 * t)
-    out[..., 1:] = k[..., None] * r
-    return out
-
-
-def fast_qlog(q: Array) -> Array:
-    """``Log`` of quaternions ``(..., 4)`` (short way, sign-invariant) -> ``(..., 3)``."""
-    v = q[..., 1:]
-    n2 = np.einsum("...i,...i->...", v, v)
-    w = q[..., 0]
-    if w.min(initial=1.0) > 0.0:
-        s2 = n2 / (w * w)
-        if s2.max(initial=0.0) < _SMALL * _SMALL:  # every rotation takes the series branch
-            return ((2.0 / w) * (1.0 - s2 / 3.0 + s2 * s2 / 5.0))[..., None] * v
-    sgn = np.where(w < 0.0, -1.0, 1.0)
-    w = sgn * w
-    n = np.sqrt(n2)
-    small = n < _SMALL * w
-    ws = np.where(small, w, 1.0)
-    s2 = np.where(small, (n / ws) ** 2, 0.0)
-    safe = np.where(small | (n == 0.0), 1.0, n)
-    k = np.where(small, (2.0 / ws) * (1.0 - s2 / 3.0 + s2 * s2 / 5.0),
-                 2.0 * np.arctan2(n, w) / safe)
-    return (sgn * k)[..., None] * v
-
-
-def _normalize(q: Array) -> Array:
-    if q.ndim == 1:
-        return q / math.sqrt(float(q @ q))
-    return q / np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
-
-
-class FastUnitQuaternion(UnitQuaternion):
-    """:class:`nav.spaces.UnitQuaternion` (same chart, same Karcher mean and tolerance)
-    with the kernels above; a ``(m, 4)`` cloud with ``(m,)`` weights takes the fast
-    mean, any other shape the parent's."""
-
-    def retract(self, x: Array, delta: Array) -> Array:
-        return _normalize(fast_qmul(np.asarray(x, dtype=np.float64),
-                                    fast_qexp(np.asarray(delta, dtype=np.float64))))
-
-    def local(self, x: Array, y: Array) -> Array:
-        return fast_qlog(fast_qmul(np.asarray(x, dtype=np.float64) * _CONJ,
-                                   np.asarray(y, dtype=np.float64)))
-
-    def mean(self, points: Array, weights: Array) -> Array:
-        pts = np.asarray(points, dtype=np.float64)
-        w = np.asarray(weights, dtype=np.float64)
-        if pts.ndim != 2 or w.ndim != 1 or pts.shape[-1] != 4 or w.shape[0] != pts.shape[0]:
-            return super().mean(points, weights)
-        # start from the sign-aligned chordal mean: within O(spread³) of the Karcher mean,
-        # so a cloud of a few arcseconds converges in one step
-        ref = pts[int(np.argmax(w))]
-        q = _normalize(w @ (pts * np.where(pts @ ref < 0.0, -1.0, 1.0)[:, None]))
-        floor = None
-        prev = np.inf
-        step_norm = np.inf
-        for _ in range(self.max_iter):
-            step = w @ fast_qlog(fast_qmul(q * _CONJ, pts))
-            q = _normalize(fast_qmul(q, fast_qexp(step)))
-            step_norm = float(np.sqrt(step @ step))
-            if step_norm < self.tol:
-                return q
-            if floor is None:  # round-off floor of the weighted sum (as UnitQuaternion.mean)
-                floor = 8.0 * np.finfo(np.float64).eps * float(np.sum(np.abs(w)))
-            if step_norm <= floor and step_norm > 0.5 * prev:
-                return q
-            prev = step_norm
-        raise ArithmeticError(
-            f"FastUnitQuaternion.mean did not converge in {self.max_iter} iterations "
-            f"(last step {step_norm:.3e} rad, tolerance {self.tol:.1e} rad)")
-
-
-QUAT = FastUnitQuaternion()
+QUAT = UnitQuaternion()
 STATE = Product([QUAT, Euclidean(3)])
 AXES = ("roll", "pitch", "yaw")
 ARCSEC = math.pi / 180.0 / 3600.0
@@ -258,7 +122,7 @@ def ordered_product(E: Array) -> Array:
         pad[..., 0] = 1.0
         E = np.concatenate([E, pad], axis=-2)
     while E.shape[-2] > 1:
-        E = fast_qmul(E[..., 0::2, :], E[..., 1::2, :])
+        E = qmul(E[..., 0::2, :], E[..., 1::2, :])
     return E[..., 0, :]
 
 
@@ -272,9 +136,9 @@ def propagate_points(X: Array, gyro: Array, dt: float) -> Array:
     size = 1 << max(n - 1, 0).bit_length()  # padded with identities to a power of two
     E = np.zeros((m, size, 4))
     E[:, n:, 0] = 1.0
-    fast_qexp((gyro[None, :, :] - b[:, None, :]) * dt, out=E[:, :n])
+    E[:, :n] = qexp((gyro[None, :, :] - b[:, None, :]) * dt)
     out = np.empty_like(X)
-    out[:, :4] = _normalize(fast_qmul(q, ordered_product(E)))
+    out[:, :4] = qnormalize(qmul(q, ordered_product(E)))
     out[:, 4:] = b
     return out
 

@@ -17,7 +17,7 @@ import pytest
 import slam.attitude_scenario as att
 from estimators import Transition
 from nav.attitude_sim import simulate_attitude
-from nav.quaternion import qexp, qlog, qmul, qnormalize, qpropagate, qto_dcm
+from nav.quaternion import qlog, qmul, qpropagate, qto_dcm
 from nav.spaces import UnitQuaternion
 from worlds import WorldError, load_world, world_from_dict
 from worlds.attitude import AttitudeWorld
@@ -114,33 +114,6 @@ def test_malformed_attitude_world_file_names_the_file(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------- kernels, simulation
-
-
-def test_fast_kernels_match_nav() -> None:
-    rng = np.random.default_rng(1)
-    p, q = rng.standard_normal((2, 50, 4))
-    assert np.abs(att.fast_qmul(p, q) - qmul(p, q)).max() < 1e-14
-    assert np.abs(att.fast_qmul(p[:, None], q[None, :5]) - qmul(p[:, None], q[None, :5])).max() \
-        < 1e-14
-    for scale in (1e-7, 5e-5, 1e-3, 1.0, 3.0):
-        r = scale * rng.standard_normal((40, 3))
-        assert np.abs(att.fast_qexp(r) - qexp(r)).max() < 1e-15
-        assert np.abs(att.fast_qexp(r[0]) - qexp(r[0])).max() < 1e-15
-        u = qnormalize(qexp(r)) * rng.choice([-1.0, 1.0], (40, 1))
-        assert np.abs(att.fast_qlog(u) - qlog(u)).max() < 1e-14
-    # the Karcher mean, with negative weights (central difference) and flipped signs
-    ref, fast = UnitQuaternion(), att.FastUnitQuaternion()
-    centre = qnormalize(rng.standard_normal(4))
-    for spread in (1e-5, 1e-2, 0.3):
-        pts = ref.retract(centre, spread * rng.standard_normal((13, 3)))
-        pts = pts * rng.choice([-1.0, 1.0], (13, 1))
-        w = np.full(13, 1.0 / 6.0)
-        w[0] = 1.0 - w[1:].sum()  # negative centre weight
-        a, b = ref.mean(pts, w), fast.mean(pts, w)
-        assert np.linalg.norm(ref.local(a, b)) < 1e-12
-        d = 0.1 * rng.standard_normal((13, 3))
-        assert np.abs(fast.retract(pts, d) - ref.retract(pts, d)).max() < 1e-14
-        assert np.abs(fast.local(pts[0], pts) - ref.local(pts[0], pts)).max() < 1e-13
 
 
 def test_noise_free_log_reproduces_the_truth() -> None:
