@@ -33,7 +33,7 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
     scores, tracks = {}, {}
     for name in filters:
         r = run_slam(log, name, association=fs.association,
-                     gates=(fs.gate_accept, fs.gate_new), epoch_steps=period)
+                     gates=(fs.gate_accept, fs.gate_new), epoch_steps=period, mode=fs.mode)
         scores[name] = reduce_run(name, r.poses, r.pose_cov, truth, r.landmark_ids,
                                   r.landmarks, lms, r.nis, r.nis_dof, r.time_s, r.diverged,
                                   r.failure)
@@ -77,6 +77,7 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
         "kind": world.kind,
         "runs": runs,
         "seed": seed,
+        "mode": world.filters.mode,
         "filters": {n: entries[n] for n in filters},
         "baselines": {ODOMETRY: entries[ODOMETRY]},
         "reference": {REFERENCE: entries[REFERENCE]},

@@ -13,7 +13,9 @@ File layout (degrees only in the file, with ``_deg`` in the key; radians in the 
                initial_sigma_xy_m, initial_sigma_heading_deg (default 0: start known exactly)
     [sensor]   max_range_m, period_steps, sigma_range_m, sigma_bearing_deg, front_half_plane
     [noise]    sigma_speed_mps, sigma_steer_deg
-    [filters]  names, association ("known" | "nn"), gate_accept, gate_new, mode ("joint")
+    [filters]  names, association ("known" | "nn"), gate_accept, gate_new,
+               mode ("joint": sigma points over the whole state | "local": over the blocks
+               a step touches, for ekf, srckf, srukf, srcdkf; see slam/local.py)
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 Keys of ``[vehicle]``, ``[sensor]``, ``[noise]`` and ``[filters]`` other than the start,
@@ -52,7 +54,8 @@ DEG = math.pi / 180.0
 KIND = "planar-slam"
 FILTER_NAMES = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf", "svdckf")
 ASSOCIATIONS = ("known", "nn")
-MODES = ("joint",)
+MODES = ("joint", "local")
+LOCAL_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
 
 _COORD = Interval(-1e6, 1e6)
 
@@ -304,6 +307,13 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
         wx, wy = points["waypoints"][0]
         heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
     heading = (heading + math.pi) % (2.0 * math.pi) - math.pi
+
+    if fil["mode"] == "local":
+        no_local = [n for n in fil["names"] if n not in LOCAL_FILTERS]
+        if no_local:
+            rule = (f"local mode supports {', '.join(LOCAL_FILTERS)} only, not "
+                    f"{', '.join(no_local)} (use mode = \"joint\")")
+            raise root.child("filters.mode").error(rule, fil["mode"])
 
     if fil["gate_new"] < fil["gate_accept"]:
         rule = f"must be >= gate_accept ({fil['gate_accept']:g})"
