@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from estimators.filters import FILTER_NAMES  # the one list of filter names
 from worlds.schema import (
     Boolean,
     Field,
@@ -51,7 +52,6 @@ from worlds.schema import (
 )
 
 KIND = "attitude"
-FILTER_NAMES = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf", "svdckf")
 STAR_MODES = ("quaternion", "vectors")
 
 DEG = math.pi / 180.0

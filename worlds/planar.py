@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from estimators.filters import FILTER_NAMES  # the one list of filter names
 from worlds.schema import (
     Boolean,
     FreeForm,
@@ -52,7 +53,6 @@ from worlds.schema import (
 Array = NDArray[np.float64]
 DEG = math.pi / 180.0
 KIND = "planar-slam"
-FILTER_NAMES = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf", "svdckf")
 ASSOCIATIONS = ("known", "nn")
 MODES = ("joint", "local")
 LOCAL_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
