@@ -20,6 +20,8 @@ import numpy as np
 
 from .attitude_scenario import run_once as attitude_run_once
 from .attitude_scenario import summarize_attitude
+from .drone_scenario import run_once as drone_run_once
+from .drone_scenario import summarize_drone
 from .planar_scenario import run_once as planar_run_once
 from .planar_scenario import summarize_planar
 from .results import CampaignResult, RunOutcome
@@ -36,6 +38,7 @@ class Scenario:
 SCENARIOS: dict[str, Scenario] = {
     "planar-slam": Scenario(planar_run_once, summarize_planar),
     "attitude": Scenario(attitude_run_once, summarize_attitude),
+    "drone-slam": Scenario(drone_run_once, summarize_drone),
 }
 
 

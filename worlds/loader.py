@@ -17,14 +17,15 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
-from worlds import attitude, planar
+from worlds import attitude, drone, planar
 from worlds.planar import World
 from worlds.schema import WorldError
 
 Parser = Callable[[dict[str, Any], str, str, "Traversable | None"], Any]
 
-PARSERS: dict[str, Parser] = {planar.KIND: planar.parse, attitude.KIND: attitude.parse}
-"""World kind -> parser. Later kinds (``attitude``, ``drone-slam``) add themselves here."""
+PARSERS: dict[str, Parser] = {planar.KIND: planar.parse, attitude.KIND: attitude.parse,
+                              drone.KIND: drone.parse}
+"""World kind -> parser."""
 
 _LINE = re.compile(r"at line (\d+)")
 
