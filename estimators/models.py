@@ -67,6 +67,10 @@ class Gaussian:
     def dim(self) -> int:
         return self.space.dim
 
+    def cov_block(self, rows: Array) -> Array:
+        """Covariance of the tangent coordinates ``rows`` (a square block of ``cov``)."""
+        return self.cov[np.ix_(rows, rows)]
+
 
 @dataclass(frozen=True)
 class SqrtGaussian:
@@ -83,6 +87,12 @@ class SqrtGaussian:
     @property
     def dim(self) -> int:
         return self.space.dim
+
+    def cov_block(self, rows: Array) -> Array:
+        """Covariance of the tangent coordinates ``rows``, from those rows of the
+        factor only (the joint covariance is never formed)."""
+        S = self.sqrt[rows]
+        return S @ S.T
 
 
 Belief = Gaussian | SqrtGaussian

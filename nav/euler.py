@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .quaternion import qmul
+from .quaternion import qexp, qmul
 
 Array = NDArray[np.float64]
 
@@ -266,3 +266,29 @@ def dcm_nb_from_paper(C_n_b: ArrayLike) -> Array:
     ndarray, shape (..., 3, 3)
     """
     return np.array(np.swapaxes(np.asarray(C_n_b, dtype=np.float64), -1, -2), copy=True)
+
+
+def euler_error_jacobian(q: ArrayLike, to_euler, eps: float = 1e-6) -> Array:
+    r"""Derivative of Euler angles with respect to the body-frame attitude error.
+
+    .. math::  J = \frac{\partial\, \mathrm{euler}(q \otimes \mathrm{Exp}(\delta))}
+               {\partial \delta}\Big|_{\delta = 0}
+
+    by central differences (angle differences wrapped), so a tangent covariance
+    :math:`P_\delta` maps to Euler-angle covariance :math:`J P_\delta J^\top`.
+
+    Parameters
+    ----------
+    q : array_like, shape (M, 4)
+    to_euler : callable
+        ``q (..., 4) -> (..., 3)``, e.g. :func:`q_to_euler_zyx` or :func:`q_to_euler_zxy`.
+
+    Returns
+    -------
+    ndarray, shape (M, 3, 3)
+    """
+    q = np.asarray(q, dtype=float)
+    steps = eps * np.eye(3)
+    plus = to_euler(qmul(q[:, None, :], qexp(steps)[None]))
+    minus = to_euler(qmul(q[:, None, :], qexp(-steps)[None]))
+    return np.swapaxes(_wrap(plus - minus) / (2.0 * eps), -1, -2)

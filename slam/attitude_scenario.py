@@ -60,10 +60,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Euclidean, Measurement, Noise, Product, Transition, make_filter
+from estimators import Euclidean, Measurement, Noise, Product, Transition, make_filter, wrap_angle
 from estimators.linalg import NotPositiveDefiniteError
 from nav.attitude_sim import AttitudeLog, AttitudeSimConfig, simulate_attitude
-from nav.euler import euler_zxy_to_q, q_to_euler_zxy
+from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
 from nav.quaternion import dcm_to_q, qconj, qexp, qmul, qnormalize, qrotate, skew
 from nav.spaces import UnitQuaternion
 
@@ -391,18 +391,6 @@ class AttitudeTrack:
     cov: Array
 
 
-def _wrap(a: Array) -> Array:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def euler_jacobian(q: Array, eps: float = 1e-6) -> Array:
-    """(M, 3, 3) derivative of the Z-X-Y Euler angles w.r.t. the body-frame error at ``q``."""
-    steps = eps * np.eye(3)
-    plus = q_to_euler_zxy(QUAT.retract(q[:, None, :], steps[None]))
-    minus = q_to_euler_zxy(QUAT.retract(q[:, None, :], -steps[None]))
-    return np.swapaxes(_wrap(plus - minus) / (2.0 * eps), -1, -2)
-
-
 def nees_6(err: Array, covs: Array) -> Array:
     """NEES per epoch, NaN where the covariance is absent or not positive definite."""
     out = np.full(err.shape[0], np.nan)
@@ -428,9 +416,9 @@ def score_series(est: EstimateSeries, log: AttitudeLog, divergence_rad: float
     err_body = np.full((M, 3), np.nan)
     sig_euler = np.full((M, 3), np.nan)
     if finite.any():
-        err_euler[finite] = _wrap(q_to_euler_zxy(qh[finite]) - q_to_euler_zxy(q_true[finite]))
+        err_euler[finite] = wrap_angle(q_to_euler_zxy(qh[finite]) - q_to_euler_zxy(q_true[finite]))
         err_body[finite] = QUAT.local(qh[finite], q_true[finite])
-        J = euler_jacobian(qh[finite])
+        J = euler_error_jacobian(qh[finite], q_to_euler_zxy)
         with np.errstate(invalid="ignore"):
             C = J @ P[finite, :3, :3] @ np.swapaxes(J, -1, -2)
             sig_euler[finite] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))

@@ -33,7 +33,6 @@ dict: the headline ANEES is the **3-dof position** ANEES (``anees``, band
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -42,15 +41,16 @@ from typing import Any
 
 import numpy as np
 
-from estimators import SqrtGaussian, make_filter
+from estimators import make_filter, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief
-from nav.euler import q_to_euler_zyx
+from nav.euler import euler_error_jacobian, q_to_euler_zyx
 from nav.imu_sim import FlightPlan, ImuErrors, Trajectory, corrupt_imu, fly
 from nav.quaternion import qconj, qexp, qmul, qrotate
 from nav.strapdown import dcm_unit, earth_rate_enu, gravity_enu, mechanise
 from nav.terrain import Terrain
 
+from .association import gated_choice
 from .drone_models import (
     POSE_ROWS,
     QUAT,
@@ -69,7 +69,7 @@ from .drone_models import (
     state_space,
 )
 from .results import REFERENCE, RunOutcome
-from .scoring import anees_band, nees_series
+from .scoring import anees_band, nees_series, nis_and_timing
 
 IMU_ONLY = "imu_only"
 AXES = ("x", "y", "z")
@@ -334,38 +334,22 @@ class DroneEstimate:
     extra_time_s: float = 0.0
 
 
-def _rows_cov(belief: Belief, rows: Array) -> Array:
-    if isinstance(belief, SqrtGaussian):
-        S = belief.sqrt[rows]
-        return S @ S.T
-    return belief.cov[np.ix_(rows, rows)]
-
-
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
                        gates: tuple[float, float]) -> int | None:
-    """Gated association of one ``[r, az, el]``: slot, ``-1`` (new) or ``None``
-    (ambiguous), by the squared Mahalanobis distance linearised at the mean."""
-    if n_lm == 0:
-        return -1
+    """Gated association of one ``[r, az, el]`` (see
+    :func:`slam.association.gated_choice`), linearised at the mean."""
     x = belief.mean
     slots = np.arange(n_lm)
-    zhat = rae_of(body_vectors(x[None], slots)[0])
+    zhat = rae_of(body_vectors(x[None], slots)[0]).reshape(n_lm, 3)
     H = rae_jacobian(x, slots)
-    best, best_nd, best_nis = None, np.inf, np.inf
+    nu = z - zhat
+    nu[:, 1] = wrap_angle(nu[:, 1])
+    S = np.empty((n_lm, 3, 3))
     for s in slots:
         rows = np.r_[0:3, 6:9, landmark_rows(int(s))]
         Hs = H[3 * s:3 * s + 3, rows]
-        Sm = Hs @ _rows_cov(belief, rows) @ Hs.T + obs_cov
-        v = z - zhat[s]
-        v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
-        nis = float(v @ np.linalg.solve(Sm, v))
-        nd = nis + math.log(np.linalg.det(Sm))
-        if nis < gates[0] and nd < best_nd:
-            best, best_nd = int(s), nd
-        best_nis = min(best_nis, nis)
-    if best is not None:
-        return best
-    return -1 if best_nis > gates[1] else None
+        S[s] = Hs @ belief.cov_block(rows) @ Hs.T + obs_cov
+    return gated_choice(nu, S, gates)
 
 
 def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
@@ -392,7 +376,7 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
     def record(e: int) -> None:
         m = b.mean
         p[e], v[e], q[e], bias[e] = m[0:3], m[3:6], m[6:10], m[10:16]
-        pose_cov[e] = _rows_cov(b, POSE_ROWS)
+        pose_cov[e] = b.cov_block(POSE_ROWS)
 
     record(0)
     obs_at = log.observations_at()
@@ -425,7 +409,7 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
     elapsed = time.perf_counter() - t0
     n_lm = len(slot_ids)
     lm = b.mean[VEH_AMBIENT:VEH_AMBIENT + 3 * n_lm].reshape(n_lm, 3)
-    lm_cov = np.array([_rows_cov(b, landmark_rows(s)) for s in range(n_lm)]).reshape(n_lm, 3, 3)
+    lm_cov = np.array([b.cov_block(landmark_rows(s)) for s in range(n_lm)]).reshape(n_lm, 3, 3)
     return DroneEstimate(filter_name, p, v, q, bias, pose_cov, np.array(slot_ids, dtype=int),
                          lm, lm_cov, np.array(nis), np.array(dof, dtype=int), elapsed,
                          max(done, 1), failure is not None, failure)
@@ -539,18 +523,6 @@ class DroneTrack:
     landmark_cov: Array
 
 
-def _wrap(a: Array) -> Array:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def euler_jacobian(q: Array, eps: float = 1e-6) -> Array:
-    """(M, 3, 3) derivative of Z-Y-X [roll, pitch, yaw] w.r.t. the body-frame error."""
-    steps = eps * np.eye(3)
-    plus = q_to_euler_zyx(QUAT.retract(q[:, None, :], steps[None]))
-    minus = q_to_euler_zyx(QUAT.retract(q[:, None, :], -steps[None]))
-    return np.swapaxes(_wrap(plus - minus) / (2.0 * eps), -1, -2)
-
-
 def score(est: DroneEstimate, log: DroneLog) -> DroneScores:
     """Reduce an estimate to :class:`DroneScores` against the log's truth."""
     tp, tv, tq = log.truth[:, 0:3], log.truth[:, 3:6], log.truth[:, 6:10]
@@ -563,9 +535,9 @@ def score(est: DroneEstimate, log: DroneLog) -> DroneScores:
     sig_att = np.full((E, 3), np.nan)
     C = est.pose_cov
     if ok.any():
-        err_att[ok] = _wrap(q_to_euler_zyx(est.q[ok]) - q_to_euler_zyx(tq[ok]))
+        err_att[ok] = wrap_angle(q_to_euler_zyx(est.q[ok]) - q_to_euler_zyx(tq[ok]))
         err_rot[ok] = QUAT.local(est.q[ok], tq[ok])
-        J = euler_jacobian(est.q[ok])
+        J = euler_error_jacobian(est.q[ok], q_to_euler_zyx)
         with np.errstate(invalid="ignore"):
             Ce = J @ C[ok, 3:, 3:] @ np.swapaxes(J, -1, -2)
             sig_att[ok] = np.sqrt(np.clip(np.diagonal(Ce, axis1=1, axis2=2), 0.0, None))
@@ -695,13 +667,7 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
         out["anees_pose6"] = pose["value"]
         out["anees_pose6_bounds_95"] = pose["band"]
         out["anees_pose6_steps_inside_95"] = pose["inside"]
-    nis = np.concatenate([s.nis for s in good])
-    if nis.size:
-        dof = np.concatenate([s.nis_dof for s in good])
-        out["nis_mean"] = float(np.mean(nis / dof))
-    steps = sum(s.steps for s in good)
-    out["time_per_step_s"] = float(sum(s.time_s for s in good) / max(steps, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(nis_and_timing(good))
     return out
 
 

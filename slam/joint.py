@@ -34,10 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from estimators import Gaussian, SqrtGaussian, make_filter
+from estimators import Gaussian, make_filter, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief, Innovation, Measurement, Transition
 
+from .association import gated_choice
 from .local import Layout, check_local, local_augment, local_predict, local_update
 from .log import PlanarLog
 from .planar_models import (
@@ -88,43 +89,22 @@ class SlamResult:
     failure: str | None
 
 
-def _rows_cov(belief: Belief, rows: Array) -> Array:
-    """Covariance block of the given state rows, without forming the joint P."""
-    if isinstance(belief, SqrtGaussian):
-        S = belief.sqrt[rows]
-        return S @ S.T
-    return belief.cov[np.ix_(rows, rows)]
-
-
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
                        gates: tuple[float, float]) -> int | None:
-    """Bailey-style gated association of one observation ``z`` = [r, b].
-
-    Returns the slot of the landmark with the smallest normalised distance if its
-    NIS is below ``gates[0]``, ``-1`` for a new landmark if every NIS exceeds
-    ``gates[1]``, else ``None`` (ambiguous: ignored).  Linearised at the mean.
-    """
-    if n_lm == 0:
-        return -1
+    """Gated association of one observation ``z`` = [r, b] (see
+    :func:`slam.association.gated_choice`), linearised at the mean."""
     x = belief.mean
     slots = np.arange(n_lm)
     zhat = range_bearing(x[None, :], slots)[0].reshape(n_lm, 2)
     H = range_bearing_jacobian(x, slots)
-    best, best_nd, best_nis = None, np.inf, np.inf
+    nu = z - zhat
+    nu[:, 1] = wrap_angle(nu[:, 1])
+    S = np.empty((n_lm, 2, 2))
     for s in slots:
         rows = np.r_[0, 1, 2, 3 + 2 * s, 4 + 2 * s]
         Hs = H[2 * s:2 * s + 2, rows]
-        Sm = Hs @ _rows_cov(belief, rows) @ Hs.T + obs_cov
-        v = z - zhat[s]
-        v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
-        nis = float(v @ np.linalg.solve(Sm, v))
-        nd = nis + np.log(np.linalg.det(Sm))
-        if nis < gates[0] and nd < best_nd:
-            best, best_nd = int(s), nd
-        best_nis = min(best_nis, nis)
-    if best is not None:
-        return best
-    return -1 if best_nis > gates[1] else None
+        S[s] = Hs @ belief.cov_block(rows) @ Hs.T + obs_cov
+    return gated_choice(nu, S, gates)
 
 
 def epochs_of(log: PlanarLog, epoch_steps: int) -> Array:
@@ -281,7 +261,7 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     E = len(steps)
     poses = np.full((E, nv), np.nan)
     covs = np.full((E, nv, nv), np.nan)
-    poses[0], covs[0] = b.mean[:nv], _rows_cov(b, np.arange(nv))
+    poses[0], covs[0] = b.mean[:nv], b.cov_block(np.arange(nv))
     slot_ids: list[int] = []
     slot_of: dict[int, int] = {}
     nis, dof = [], []
@@ -299,7 +279,7 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
                              nis, dof)
             if not np.all(np.isfinite(b.mean)):
                 raise FloatingPointError("non-finite state estimate")
-            poses[e], covs[e] = b.mean[:nv], _rows_cov(b, np.arange(nv))
+            poses[e], covs[e] = b.mean[:nv], b.cov_block(np.arange(nv))
             if truth is not None and np.hypot(*(b.mean[:2] - truth[k1, :2])) > diverge_m:
                 raise FloatingPointError(f"vehicle error above {diverge_m} m at step {k1}")
     except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as exc:
@@ -308,7 +288,7 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     n_lm = len(slot_ids)
     nl = problem.layout.nl
     lm = b.mean[nv:nv + nl * n_lm].reshape(n_lm, nl)
-    lm_cov = np.array([_rows_cov(b, nv + nl * s + np.arange(nl)) for s in range(n_lm)]
+    lm_cov = np.array([b.cov_block(nv + nl * s + np.arange(nl)) for s in range(n_lm)]
                       ).reshape(n_lm, nl, nl)
     return SlamResult(filter_name, steps, poses, covs, np.array(slot_ids, dtype=int), lm,
                       lm_cov, np.array(nis), np.array(dof, dtype=int), elapsed,

@@ -98,6 +98,14 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
         out["anees"] = float(valid.mean())
         out["anees_bounds_95"] = [lo, hi]
         out["anees_steps_inside_95"] = float(np.mean((valid >= lo) & (valid <= hi)))
+    out.update(nis_and_timing(good))
+    return out
+
+
+def nis_and_timing(good: list) -> dict:
+    """``nis_mean`` (NIS per measurement dof over all updates), ``time_per_step_s`` and
+    ``time_per_run_s`` of runs with ``nis``, ``nis_dof``, ``steps`` and ``time_s``."""
+    out: dict = {}
     nis = np.concatenate([s.nis for s in good])
     if nis.size:
         dof = np.concatenate([s.nis_dof for s in good])
