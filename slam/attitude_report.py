@@ -16,8 +16,7 @@ maps file names to the figure functions; :data:`REPORT` is the
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,11 +27,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
 
 from .attitude_scenario import ARCSEC, AXES, DEG_H  # noqa: E402
-from .report import KindReport, Section  # noqa: E402
+from .report import (  # noqa: E402
+    DPI,
+    MISSING,
+    KindReport,
+    Section,
+    _num,
+    estimator_entries,
+    markdown_table,
+)
 from .results import REFERENCE, CampaignResult  # noqa: E402
 
-DPI = 110
-MISSING = "—"
 _COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:brown", "tab:pink",
             "tab:olive", "tab:cyan")
 _REFERENCE_COLOUR = "#7a3b8f"
@@ -41,23 +46,9 @@ _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
 # --------------------------------------------------------------------------- tables
 
-def _num(v: Any, fmt: str, scale: float = 1.0) -> str:
-    if v is None or isinstance(v, bool) or not isinstance(v, int | float | np.number):
-        return MISSING
-    if not math.isfinite(float(v)):
-        return MISSING
-    return format(float(v) * scale, fmt)
-
-
 def _triple(d: Any, fmt: str = ".1f") -> list[str]:
     d = d if isinstance(d, dict) else {}
     return [_num(d.get(a), fmt) for a in AXES]
-
-
-def _table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(lines)
 
 
 def _anees(entry: dict[str, Any], key: str = "anees") -> str:
@@ -82,14 +73,10 @@ PAPER_HEADER = ("filter", "roll paper", "roll ours", "pitch paper", "pitch ours"
 CONVERGENCE_HEADER = ("estimator", "median (s)", "max (s)", "never")
 
 
-def _entries(summary: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
-    return [*(summary.get("filters") or {}).items(), *(summary.get("reference") or {}).items()]
-
-
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter and the smoother (columns :data:`RESULT_HEADER`)."""
     rows = []
-    for name, e in _entries(summary):
+    for name, e in estimator_entries(summary):
         time_cell = (_num(e.get("time_per_cycle_s"), ".3f", 1e3) if name != REFERENCE
                      else f"{_num(e.get('time_s'), '.2f')} s/run")
         diverged = e.get("diverged_runs")
@@ -124,7 +111,7 @@ def convergence_rows(summary: dict[str, Any]) -> list[list[str]]:
     return [[_label(n), _num(e.get("converge_below_1arcmin_s"), ".1f"),
              _num(e.get("converge_below_1arcmin_max_s"), ".1f"),
              str(e.get("never_below_1arcmin_runs", MISSING))]
-            for n, e in _entries(summary) if "converge_below_1arcmin_s" in e]
+            for n, e in estimator_entries(summary) if "converge_below_1arcmin_s" in e]
 
 
 def _results_text(summary: dict[str, Any]) -> str:
@@ -164,13 +151,13 @@ HOW_TO_READ = (
 
 def attitude_tables(summary: dict[str, Any]) -> str:
     """Markdown: our attitude results, convergence (if scored), the paper's Table 2."""
-    parts = [_results_text(summary), "", _table(RESULT_HEADER, result_rows(summary))]
+    parts = [_results_text(summary), "", markdown_table(RESULT_HEADER, result_rows(summary))]
     conv = convergence_rows(summary)
     if conv:
-        parts += ["", CONVERGENCE_TEXT, "", _table(CONVERGENCE_HEADER, conv)]
+        parts += ["", CONVERGENCE_TEXT, "", markdown_table(CONVERGENCE_HEADER, conv)]
     rows = paper_rows(summary)
     if rows:
-        parts += ["", PAPER_TEXT, "", _table(PAPER_HEADER, rows)]
+        parts += ["", PAPER_TEXT, "", markdown_table(PAPER_HEADER, rows)]
     statement = _paper_statement(summary)
     if statement:
         parts += ["", f"Paper: {statement}"]

@@ -43,6 +43,7 @@ from .report import (  # noqa: E402
     Section,
     _interval,
     _num,
+    estimator_entries,
     markdown_table,
     paper_rows,
     plain_table,
@@ -95,12 +96,7 @@ def _row(name: str, e: dict[str, Any]) -> list[str]:
 
 def drone_rows(summary: dict[str, Any]) -> list[list[str]]:
     """Filters, then the IMU-only baseline and the GTSAM smoother."""
-    rows = [_row(n, e) for n, e in (summary.get("filters") or {}).items()]
-    for group, name in (("baselines", IMU_ONLY), ("reference", REFERENCE)):
-        entry = (summary.get(group) or {}).get(name)
-        if entry is not None:
-            rows.append(_row(name, entry))
-    return rows
+    return [_row(n, e) for n, e in estimator_entries(summary)]
 
 
 def drone_results_table(summary: dict[str, Any]) -> str:

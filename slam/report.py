@@ -99,7 +99,8 @@ RESULT_COLUMNS = ("estimator", "pos RMSE (m)", "x range (m)", "y range (m)",
 
 
 def _num(v: Any, fmt: str, scale: float = 1.0) -> str:
-    if v is None or not isinstance(v, int | float | np.number) or not math.isfinite(v):
+    if (v is None or isinstance(v, bool) or not isinstance(v, int | float | np.number)
+            or not math.isfinite(v)):
         return MISSING
     return format(float(v) * scale, fmt)
 
@@ -137,14 +138,16 @@ def _result_row(name: str, entry: dict[str, Any]) -> list[str]:
     ]
 
 
+def estimator_entries(summary: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+    """``(name, entry)`` of every estimator in table order: the filters, then the
+    baselines (odometry, IMU only), then the reference smoother."""
+    return [(name, entry) for group in ("filters", "baselines", "reference")
+            for name, entry in (summary.get(group) or {}).items()]
+
+
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter, then the odometry baseline and the GTSAM reference."""
-    rows = [_result_row(n, e) for n, e in (summary.get("filters") or {}).items()]
-    for group, name in (("baselines", ODOMETRY), ("reference", REFERENCE)):
-        entry = (summary.get(group) or {}).get(name)
-        if entry is not None:
-            rows.append(_result_row(name, entry))
-    return rows
+    return [_result_row(n, e) for n, e in estimator_entries(summary)]
 
 
 def paper_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:

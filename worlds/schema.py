@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -123,13 +124,14 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
-class Field:
+class Field(ABC):
     """One key: a parser from its TOML value, and a default (or :data:`REQUIRED`)."""
 
     default: Any = REQUIRED
 
-    def parse(self, value: Any, where: Where) -> Any:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def parse(self, value: Any, where: Where) -> Any:
+        """The checked, converted value; raises :class:`WorldError` naming the key."""
 
 
 class Number(Field):
