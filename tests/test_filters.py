@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 from estimators import (
     FILTER_NAMES,
@@ -28,26 +29,8 @@ from estimators import (
 from estimators.ekf import numerical_jacobian
 from estimators.sigma import SigmaPointFilter
 
+
 # --------------------------------------------------------------------------- linear model
-F = np.array([[1.0, 0.1, 0.005, 0.0],
-              [0.0, 1.0, 0.1, 0.0],
-              [0.0, 0.0, 0.98, 0.0],
-              [0.02, 0.0, 0.0, 0.95]])
-B = np.array([[0.0], [0.0], [0.1], [0.05]])
-H = np.array([[1.0, 0.0, 0.0, 0.5],
-              [0.0, 0.0, 1.0, -1.0]])
-Q = np.diag([1e-4, 1e-3, 1e-2, 4e-3])
-R = np.array([[0.3, 0.05], [0.05, 0.2]])
-
-
-def linear_models(with_jacobians: bool) -> tuple[Transition, Measurement]:
-    tr = Transition(lambda X, u: X @ F.T + (B @ u), Noise.from_cov(Q),
-                    jacobian=(lambda x, u: F) if with_jacobians else None)
-    me = Measurement(lambda X: X @ H.T, Noise.from_cov(R),
-                     jacobian=(lambda x: H) if with_jacobians else None)
-    return tr, me
-
-
 def kalman_reference(x0, P0, us, zs):
     """Textbook Kalman filter (covariance form), written out independently."""
     x, P, out = x0.copy(), P0.copy(), []
@@ -61,18 +44,6 @@ def kalman_reference(x0, P0, us, zs):
         P = (np.eye(4) - K @ H) @ P
         out.append((x.copy(), P.copy(), float(nu @ np.linalg.solve(S, nu))))
     return out
-
-
-def simulate_linear(n_steps: int, seed: int):
-    rng = np.random.default_rng(seed)
-    x = np.array([1.0, -0.5, 0.3, 2.0])
-    us, zs = [], []
-    for k in range(n_steps):
-        u = np.array([np.sin(0.05 * k)])
-        x = F @ x + B @ u + rng.multivariate_normal(np.zeros(4), Q)
-        us.append(u)
-        zs.append(H @ x + rng.multivariate_normal(np.zeros(2), R))
-    return us, zs
 
 
 @pytest.mark.parametrize("name", FILTER_NAMES)

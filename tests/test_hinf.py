@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 from estimators import Cubature, Euclidean, Measurement, Noise, Transition, Unscented
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES, make_filter
@@ -79,33 +80,7 @@ def test_large_gamma_equals_kalman_twin_on_nonlinear_model(hinf, kf):
 
 
 # --------------------------------------------------------------------------- linear model
-F = np.array([[1.0, 0.1, 0.005, 0.0],
-              [0.0, 1.0, 0.1, 0.0],
-              [0.0, 0.0, 0.98, 0.0],
-              [0.02, 0.0, 0.0, 0.95]])
-Bu = np.array([[0.0], [0.0], [0.1], [0.05]])
-H = np.array([[1.0, 0.0, 0.0, 0.5],
-              [0.0, 0.0, 1.0, -1.0]])
-Q = np.diag([1e-4, 1e-3, 1e-2, 4e-3])
-R = np.array([[0.3, 0.05], [0.05, 0.2]])
 GAMMA = 3.0
-
-
-def linear_models():
-    return (Transition(lambda X, u: X @ F.T + Bu @ u, Noise.from_cov(Q)),
-            Measurement(lambda X: X @ H.T, Noise.from_cov(R)))
-
-
-def simulate_linear(n_steps: int, seed: int):
-    rng = np.random.default_rng(seed)
-    x = np.array([1.0, -0.5, 0.3, 2.0])
-    us, zs = [], []
-    for k in range(n_steps):
-        u = np.array([np.sin(0.05 * k)])
-        x = F @ x + Bu @ u + rng.multivariate_normal(np.zeros(4), Q)
-        us.append(u)
-        zs.append(H @ x + rng.multivariate_normal(np.zeros(2), R))
-    return us, zs
 
 
 def linear_hinf_reference(x0, P0, us, zs, gamma):
@@ -120,7 +95,7 @@ def linear_hinf_reference(x0, P0, us, zs, gamma):
     g2 = 0.0 if np.isinf(gamma) else gamma**-2
     Ri = np.linalg.inv(R)
     for u, z in zip(us, zs):
-        x = F @ x + Bu @ u
+        x = F @ x + B @ u
         P = F @ P @ F.T + Q
         S = H @ P @ H.T + R
         K = P @ H.T @ np.linalg.inv(S)
