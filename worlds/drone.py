@@ -48,8 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from estimators.filters import FILTER_NAMES  # the one list of filter names
-from worlds.planar import MapSpec
+from worlds.planar import MapSpec, filters_section
 from worlds.schema import (
     Boolean,
     FreeForm,
@@ -59,7 +58,6 @@ from worlds.schema import (
     Points,
     Section,
     String,
-    StringList,
     Vector,
     Where,
     positive,
@@ -67,7 +65,6 @@ from worlds.schema import (
 )
 
 KIND = "drone-slam"
-ASSOCIATIONS = ("known", "nn")
 MODES = ("joint",)
 TERRAIN_TYPES = ("flat", "hills", "mesh")
 
@@ -156,17 +153,11 @@ SCHEMA = {
         },
         required=False,
     ),
-    "filters": Section(
-        {
-            "names": StringList(FILTER_NAMES),
-            "association": String(choices=ASSOCIATIONS, default="known"),
-            "gate_accept": Number(positive(1_000.0), default=7.8),
-            "gate_new": Number(positive(10_000.0), default=30.0),
-            "mode": String(choices=MODES, default="joint"),
-            "imu_noise_scale": Number(positive(1e6), default=1.0),
-            "sensor_noise_scale": Number(positive(1e6), default=1.0),
-            "divergence_m": Number(positive(1e6), default=25.0),
-        }
+    "filters": filters_section(
+        MODES, gate_accept=7.8, gate_new=30.0,
+        imu_noise_scale=Number(positive(1e6), default=1.0),
+        sensor_noise_scale=Number(positive(1e6), default=1.0),
+        divergence_m=Number(positive(1e6), default=25.0),
     ),
     "paper": FreeForm(default=dict),
 }
@@ -454,16 +445,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
             line_of_sight=sen["line_of_sight"],
             los_margin_m=sen["los_margin_m"],
         ),
-        filters=DroneFilterSpec(
-            names=fil["names"],
-            association=fil["association"],
-            gate_accept=fil["gate_accept"],
-            gate_new=fil["gate_new"],
-            mode=fil["mode"],
-            imu_noise_scale=fil["imu_noise_scale"],
-            sensor_noise_scale=fil["sensor_noise_scale"],
-            divergence_m=fil["divergence_m"],
-        ),
+        filters=DroneFilterSpec(**fil),
         runs=v["runs"],
         seed=v["seed"],
         paper=v["paper"],

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from estimators.filters import FILTER_NAMES  # the one list of filter names
 from worlds.schema import (
     Boolean,
+    Field,
     FreeForm,
     Integer,
     Interval,
@@ -55,6 +56,22 @@ DEG = math.pi / 180.0
 KIND = "planar-slam"
 ASSOCIATIONS = ("known", "nn")
 MODES = ("joint", "local")
+
+
+def filters_section(modes: tuple[str, ...], *, gate_accept: float, gate_new: float,
+                    **extra: Field) -> Section:
+    """The ``[filters]`` table of a SLAM world: filter names, association, the
+    nearest-neighbour gates (squared Mahalanobis), the mode, and kind-specific keys."""
+    return Section(
+        {
+            "names": StringList(FILTER_NAMES),
+            "association": String(choices=ASSOCIATIONS, default="known"),
+            "gate_accept": Number(positive(1_000.0), default=gate_accept),
+            "gate_new": Number(positive(10_000.0), default=gate_new),
+            "mode": String(choices=modes, default="joint"),
+            **extra,
+        }
+    )
 LOCAL_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
 
 _COORD = Interval(-1e6, 1e6)
@@ -104,15 +121,7 @@ SCHEMA = {
         },
         required=False,
     ),
-    "filters": Section(
-        {
-            "names": StringList(FILTER_NAMES),
-            "association": String(choices=ASSOCIATIONS, default="known"),
-            "gate_accept": Number(positive(1_000.0), default=4.0),
-            "gate_new": Number(positive(10_000.0), default=25.0),
-            "mode": String(choices=MODES, default="joint"),
-        }
-    ),
+    "filters": filters_section(MODES, gate_accept=4.0, gate_new=25.0),
     "paper": FreeForm(default=dict),
 }
 
@@ -347,13 +356,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
             front_half_plane=sen["front_half_plane"],
         ),
         noise=ControlNoise(noi["sigma_speed_mps"], noi["sigma_steer_deg"]),
-        filters=FilterSpec(
-            names=fil["names"],
-            association=fil["association"],
-            gate_accept=fil["gate_accept"],
-            gate_new=fil["gate_new"],
-            mode=fil["mode"],
-        ),
+        filters=FilterSpec(**fil),
         runs=v["runs"],
         seed=v["seed"],
         paper=v["paper"],
