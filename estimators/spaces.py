@@ -62,8 +62,9 @@ class Space(Protocol):
 
 
 def wrap_angle(a: Array) -> Array:
-    """Wrap angles to ``[-π, π)``."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+    """Wrap angles to ``[-π, π)`` (a float ``%`` that rounds up to π is mapped to -π)."""
+    out = (np.asarray(a, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+    return np.where(out >= np.pi, out - 2.0 * np.pi, out)
 
 
 class _Flat:

@@ -39,6 +39,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.spaces import wrap_angle
+
 from .quaternion import qexp, qmul
 
 Array = NDArray[np.float64]
@@ -65,10 +67,6 @@ def _axis_q(angle: ArrayLike, axis: int) -> Array:
     q[..., 0] = np.cos(half)
     q[..., 1 + axis] = np.sin(half)
     return q
-
-
-def _wrap(a: Array) -> Array:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _tait_bryan(sum_yx: tuple[Array, Array], dif_yx: tuple[Array, Array]) -> Array:
@@ -141,7 +139,7 @@ def q_to_euler_zyx(q: ArrayLike) -> Array:
     q = np.asarray(q, dtype=np.float64)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     roll, pitch, yaw = np.moveaxis(_tait_bryan((x + z, w - y), (x - z, w + y)), -1, 0)
-    return np.stack([_wrap(roll), pitch, _wrap(yaw)], axis=-1)
+    return np.stack([wrap_angle(roll), pitch, wrap_angle(yaw)], axis=-1)
 
 
 def euler_zxy_to_q(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) -> Array:
@@ -201,7 +199,7 @@ def q_to_euler_zxy(q: ArrayLike) -> Array:
     # = b - c with norm ∝ cos a - sin a, atan2(z + y, w + x) = b + c with norm
     # ∝ cos a + sin a.  _tait_bryan then sees "a + c" = b - c, i.e. its first angle is -γ.
     pitch, roll, neg_yaw = np.moveaxis(_tait_bryan((y - z, w - x), (z + y, w + x)), -1, 0)
-    return np.stack([roll, _wrap(pitch), _wrap(-neg_yaw)], axis=-1)
+    return np.stack([roll, wrap_angle(pitch), wrap_angle(-neg_yaw)], axis=-1)
 
 
 def q_from_paper(q_paper: ArrayLike) -> Array:
@@ -291,4 +289,4 @@ def euler_error_jacobian(q: ArrayLike, to_euler, eps: float = 1e-6) -> Array:
     steps = eps * np.eye(3)
     plus = to_euler(qmul(q[:, None, :], qexp(steps)[None]))
     minus = to_euler(qmul(q[:, None, :], qexp(-steps)[None]))
-    return np.swapaxes(_wrap(plus - minus) / (2.0 * eps), -1, -2)
+    return np.swapaxes(wrap_angle(plus - minus) / (2.0 * eps), -1, -2)

@@ -261,7 +261,7 @@ def observe(world, p: Array, q: Array, landmarks: Array, terrain: Terrain | None
     sig = noise_scale * np.array([sen.sigma_range_m, sen.sigma_azimuth_rad,
                                   sen.sigma_elevation_rad])
     obs = z[e, j] + rng.standard_normal((e.size, 3)) * sig
-    obs[:, 1] = (obs[:, 1] + np.pi) % (2.0 * np.pi) - np.pi
+    obs[:, 1] = wrap_angle(obs[:, 1])
     return e.astype(np.int64), j.astype(np.int64), obs
 
 

@@ -84,6 +84,7 @@ import numpy as np
 from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
+from estimators import wrap_angle
 from slam.log import PlanarLog
 
 Array = NDArray[np.float64]
@@ -277,12 +278,8 @@ def _compound_world(base: Array, rel_xy: Array, rel_th: Array) -> Array:
     out = np.empty((len(base), 3))
     out[:, 0] = base[:, 0] + c * rel_xy[:, 0] - s * rel_xy[:, 1]
     out[:, 1] = base[:, 1] + s * rel_xy[:, 0] + c * rel_xy[:, 1]
-    out[:, 2] = _wrap(base[:, 2] + rel_th)
+    out[:, 2] = wrap_angle(base[:, 2] + rel_th)
     return out
-
-
-def _wrap(a: Array) -> Array:
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 # --------------------------------------------------------------------------------------

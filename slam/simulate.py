@@ -28,19 +28,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from estimators import wrap_angle
 from slam.log import PlanarLog
 from worlds.planar import World
 from worlds.schema import WorldError
 
 TWO_PI = 2.0 * math.pi
-
-
-def wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Wrap angles to ``[-π, π)``."""
-    out = (np.asarray(a, dtype=float) + math.pi) % TWO_PI - math.pi
-    return np.where(out >= math.pi, out - TWO_PI, out)
 
 
 def _wrap1(a: float) -> float:
@@ -119,7 +113,7 @@ def observe(
         noise_scale * np.array([sen.sigma_range_m, sen.sigma_bearing_rad])
     )
     rng_m = np.sqrt(d2[row, lid]) + noise[:, 0]
-    bearing = wrap(np.arctan2(dy[row, lid], dx[row, lid]) - pose[row, 2] + noise[:, 1])
+    bearing = wrap_angle(np.arctan2(dy[row, lid], dx[row, lid]) - pose[row, 2] + noise[:, 1])
     return steps[row], lid.astype(np.int64), np.column_stack([rng_m, bearing])
 
 
