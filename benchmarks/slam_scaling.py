@@ -28,9 +28,9 @@ import numpy as np
 
 from estimators import make_filter
 from estimators.linalg import tria
-from slam.joint import PLANAR_LAYOUT
-from slam.local import local_predict, local_update
-from slam.planar_models import motion_model, observation_model, range_bearing, state_space
+from slam.kinds.planar.models import motion_model, observation_model, range_bearing, state_space
+from slam.mapping.joint import PLANAR_LAYOUT
+from slam.mapping.local import local_predict, local_update
 
 LANDMARKS = (10, 35, 135, 500)
 CASES = (("ekf", "joint"), ("ekf", "local"), ("srckf", "joint"), ("srckf", "local"))

@@ -29,8 +29,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from estimators import make_filter  # noqa: E402
-from nav.attitude_sim import simulate_attitude  # noqa: E402
-from slam.attitude_scenario import (  # noqa: E402
+from slam.kinds.attitude.run import (  # noqa: E402
     STATE,
     initial_belief,
     interval_transition,
@@ -38,6 +37,7 @@ from slam.attitude_scenario import (  # noqa: E402
     star_measurement,
     star_observation,
 )
+from slam.kinds.attitude.simulate import simulate_attitude  # noqa: E402
 from worlds import load_world  # noqa: E402
 
 

@@ -200,7 +200,7 @@ def chol_update_mixed(S: Array, Vp: Array, Vn: Array, block: int = SWEEP_BLOCK) 
     :math:`S'_{TT}` continues the sweep with :math:`V'_T` and the same signature.  Needs
     non-singular diagonal blocks of :math:`S`; raises :class:`NotPositiveDefiniteError` if
     a block is singular or the result is not positive definite.  Used to fold a pending
-    positive update into a measurement downdate (:mod:`slam.local`).
+    positive update into a measurement downdate (:mod:`slam.mapping.local`).
     """
     S = np.asarray(S, dtype=float)
     n = S.shape[0]

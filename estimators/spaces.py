@@ -20,6 +20,7 @@ broadcasts over the leading axes.  Spaces are immutable values.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -28,6 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+
+_TWO_PI = 2.0 * math.pi
 
 
 @runtime_checkable
@@ -61,10 +64,17 @@ class Space(Protocol):
         ...
 
 
-def wrap_angle(a: Array) -> Array:
-    """Wrap angles to ``[-π, π)`` (a float ``%`` that rounds up to π is mapped to -π)."""
-    out = (np.asarray(a, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
-    return np.where(out >= np.pi, out - 2.0 * np.pi, out)
+def wrap_angle(a: Array | float) -> Array | float:
+    """Wrap angles to ``[-π, π)`` (a float ``%`` that rounds up to π is mapped to -π).
+
+    The one angle-wrapping function of the project.  A Python ``float`` in gives a
+    ``float`` out by scalar arithmetic (the same IEEE operations, for simulator loops).
+    """
+    if isinstance(a, float):
+        w = (a + math.pi) % _TWO_PI - math.pi
+        return w - _TWO_PI if w >= math.pi else w
+    out = (np.asarray(a, dtype=float) + np.pi) % _TWO_PI - np.pi
+    return np.where(out >= np.pi, out - _TWO_PI, out)
 
 
 class _Flat:
@@ -183,7 +193,7 @@ class Wrapped(_Flat):
     def _wrap(self, v: Array) -> Array:
         out = np.array(v, dtype=float, copy=True)
         for i in self.angles:
-            out[..., i] = (out[..., i] + np.pi) % (2.0 * np.pi) - np.pi
+            out[..., i] = wrap_angle(out[..., i])
         return out
 
     def retract(self, x: Array, delta: Array) -> Array:

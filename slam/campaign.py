@@ -1,11 +1,11 @@
 """Monte Carlo campaigns: one task function per run, any executor.
 
-Each world ``kind`` registers a :class:`Scenario`: ``run_once(world, run, seed_seq,
-filters, keep_tracks)`` simulates and scores one run, ``summarize(world, outcomes,
-filters, runs, seed)`` builds the ``summary.json`` dict.  :func:`run_campaign` maps
-the run function over a local process pool (in-process with ``workers=1``, or any
-``map``-like executor) and summarises.  Each worker pins its maths library to one
-thread; seeds come from ``numpy.random.SeedSequence(seed).spawn``, so the result does
+Each world ``kind`` is a :class:`~slam.kind.Kind` in the registry (:mod:`slam.kinds`):
+``run_once(world, run, seed_seq, filters, keep_tracks)`` simulates and scores one run,
+``summarize(world, outcomes, filters, runs, seed)`` builds the ``summary.json`` dict.
+:func:`run_campaign` maps the run function over a local process pool (in-process with
+``workers=1``, or any ``map``-like executor) and summarises.  Each worker pins its maths
+library to one thread; seeds come from ``numpy.random.SeedSequence(seed).spawn``, so the result does
 not depend on the executor or the number of workers.
 """
 
@@ -14,32 +14,11 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
 
 import numpy as np
 
-from .attitude_scenario import run_once as attitude_run_once
-from .attitude_scenario import summarize_attitude
-from .drone_scenario import run_once as drone_run_once
-from .drone_scenario import summarize_drone
-from .planar_scenario import run_once as planar_run_once
-from .planar_scenario import summarize_planar
-from .results import CampaignResult, RunOutcome
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """How to run and summarise one world kind."""
-
-    run_once: Callable[..., RunOutcome]
-    summarize: Callable[..., dict]
-
-
-SCENARIOS: dict[str, Scenario] = {
-    "planar-slam": Scenario(planar_run_once, summarize_planar),
-    "attitude": Scenario(attitude_run_once, summarize_attitude),
-    "drone-slam": Scenario(drone_run_once, summarize_drone),
-}
+from slam.kinds import KINDS
+from slam.results import CampaignResult, RunOutcome
 
 
 def pin_threads() -> None:
@@ -65,7 +44,7 @@ def run_task(args: tuple) -> RunOutcome:
 
     world = args[0]
     with threadpool_limits(1):
-        return SCENARIOS[world.kind].run_once(*args)
+        return KINDS[world.kind].run_once(*args)
 
 
 def dask_mapper(address: str):
@@ -108,8 +87,8 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
         overrides ``workers``.  Results may arrive in any order.
     progress : called with 1 after each finished run.
     """
-    if world.kind not in SCENARIOS:
-        raise ValueError(f"no scenario runner for world kind {world.kind!r}")
+    if world.kind not in KINDS:
+        raise ValueError(f"no scenario kind {world.kind!r} is registered")
     filters = list(filters or world.filters.names)
     runs = int(runs or world.runs)
     seed = int(world.seed if seed is None else seed)
@@ -133,5 +112,5 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
         if pool is not None:
             pool.shutdown(cancel_futures=True)
     outcomes.sort(key=lambda o: o.run)
-    summary = SCENARIOS[world.kind].summarize(world, outcomes, filters, runs, seed)
+    summary = KINDS[world.kind].summarize(world, outcomes, filters, runs, seed)
     return CampaignResult(world, summary, outcomes)

@@ -9,13 +9,15 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
 import click
 
 from estimators import FILTER_NAMES
-from worlds.planar import MODES
+
+ALL_MODES = ("joint", "local")
 
 
 class InputError(click.ClickException):
@@ -35,7 +37,7 @@ def main() -> None:
 @main.command("worlds")
 def worlds_cmd() -> None:
     """List the bundled worlds."""
-    from worlds import list_worlds
+    from slam.kinds import list_worlds
 
     rows = list_worlds()
     width = max(len(n) for n, _, _ in rows)
@@ -44,9 +46,9 @@ def worlds_cmd() -> None:
         click.echo(f"{name:<{width}}  {kind:<{kwidth}}  {desc}")
 
 
-def _parse_filters(value: str | None, world) -> list[str]:
+def _parse_filters(value: str | None, default: Sequence[str]) -> list[str]:
     if value is None:
-        return list(world.filters.names)
+        return list(default)
     names = [v.strip() for v in value.split(",") if v.strip()]
     bad = [n for n in names if n not in FILTER_NAMES]
     if not names or bad:
@@ -69,7 +71,7 @@ def _parse_filters(value: str | None, world) -> list[str]:
               help="Send the runs to a Dask distributed scheduler (e.g. tcp://host:8786) "
                    "instead of the local pool; needs the [dask] extra.")
 @click.option("--no-plots", is_flag=True, help="Skip the figures (faster).")
-@click.option("--mode", type=click.Choice(MODES),
+@click.option("--mode", type=click.Choice(ALL_MODES),
               help="Filter mode: joint (sigma points over the whole state) or local (over the "
                    "blocks a step touches; ekf, srckf, srukf, srcdkf). Default: the world's "
                    "[filters] mode; local for --log.")
@@ -82,26 +84,17 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
             no_plots: bool, mode: str | None, log_file: str | None) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
-    run the filters and the smoother on a recorded log."""
+    run the filters and the smoother on a recorded log (one run)."""
     if log_file is not None:
-        _run_log_cmd(log_file, world, filters, runs, seed, out, workers, scheduler, mode)
-        return
-    from worlds import WorldError, load_world
-
-    try:
-        w = load_world(world or "bailey")
-    except WorldError as exc:
-        raise InputError(str(exc)) from None
-    world_mode = getattr(getattr(w, "filters", None), "mode", None)
-    if mode is not None and mode != world_mode:
-        if w.kind != "planar-slam":
-            raise InputError(f"--mode {mode}: world {w.name} (kind {w.kind}) has no {mode} "
-                             "mode; local mode is for planar-slam worlds")
-        w = replace(w, filters=replace(w.filters, mode=mode))
-        world_mode = mode
-    names = _parse_filters(filters, w)
+        w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
+        workers = 1
+    else:
+        w, kind = _open_world(world or "bailey", mode)
+    names = _parse_filters(filters, w.filters.names)
+    world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:
-        _check_mode(names, world_mode, "--filters" if filters else f"{w.source} [filters] names")
+        _check_mode(kind, names, world_mode,
+                    "--filters" if filters else f"{w.source} [filters] names")
     if runs is not None and not 1 <= runs <= 10000:
         raise InputError(f"--runs = {runs}: must be in [1, 10000]")
     if seed is not None and seed < 0:
@@ -113,11 +106,56 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
     out = out or Path("out") / w.name
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: exists and is not a folder")
+    _run_and_write(w, kind, names, runs, seed, workers, scheduler, out, not no_plots,
+                   world_mode)
 
+
+def _open_world(name: str, mode: str | None):
+    """Load WORLD and apply ``--mode``; -> (world, kind)."""
+    from slam.kinds import get_kind, load_world
+    from worlds import WorldError
+
+    try:
+        w = load_world(name)
+    except WorldError as exc:
+        raise InputError(str(exc)) from None
+    kind = get_kind(w.kind)
+    world_mode = getattr(w.filters, "mode", None)
+    if mode is not None and mode != world_mode:
+        if mode not in kind.modes:
+            has = (f"modes {', '.join(kind.modes)}" if kind.modes else "no filter modes")
+            raise InputError(f"--mode {mode}: world {w.name} (kind {w.kind}) has {has}")
+        w = replace(w, filters=replace(w.filters, mode=mode))
+    return w, kind
+
+
+def _open_log(log_file: str, world: str | None, filters: str | None, runs: int | None,
+              seed: int | None, workers: int | None, scheduler: str | None,
+              mode: str | None):
+    """``--log FILE``: the log as a one-run world of the recorded-log kind."""
+    from slam.kinds import log_kind
+    from slam.kinds.recorded.log import LogFormatError
+
+    for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
+                       (workers, "--workers"), (scheduler, "--scheduler")):
+        if given is not None:
+            raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
+    kind = log_kind()
+    try:
+        w = kind.open_log(Path(log_file), _parse_filters(filters, ()) or None, mode)
+    except LogFormatError as exc:
+        raise InputError(f"--log {exc}") from None
+    return w, kind
+
+
+def _run_and_write(w, kind, names: list[str], runs: int | None, seed: int | None,
+                   workers: int, scheduler: str | None, out: Path, plots: bool,
+                   world_mode: str | None) -> None:
+    """Run the campaign (local pool or Dask), write the report folder, print the table."""
     from tqdm import tqdm
 
-    from .campaign import dask_mapper, run_campaign
-    from .report import text_table, write_outputs
+    from slam.campaign import dask_mapper, run_campaign
+    from slam.render.output import write_outputs
 
     mapper = client = None
     if scheduler:
@@ -137,88 +175,20 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
             client.close()
     elapsed = time.perf_counter() - t0
     executor = f"dask scheduler {scheduler}" if scheduler else f"{workers} local worker(s)"
-    write_outputs(result, out, plots=not no_plots)
-    click.echo(text_table(result.summary))
+    write_outputs(result, kind.report, out, plots=plots)
+    click.echo(kind.report.text_table(result.summary))
     in_mode = f" ({world_mode} mode)" if world_mode else ""
-    click.echo(f"\n{n_runs} runs x {len(names)} filters + baselines{in_mode} "
-               f"in {elapsed:.1f} s on {executor}; results in {out}/")
+    click.echo(f"\n{n_runs} run{'s' if n_runs != 1 else ''} x {len(names)} filters + "
+               f"baselines{in_mode} in {elapsed:.1f} s on {executor}; results in {out}/")
 
 
-def _check_mode(names: list[str], mode: str, where: str) -> None:
-    from .local import LOCAL_FILTERS
-
-    if mode == "local":
-        bad = [n for n in names if n not in LOCAL_FILTERS]
+def _check_mode(kind, names: list[str], mode: str, where: str) -> None:
+    allowed = (kind.mode_filters or {}).get(mode)
+    if allowed is not None:
+        bad = [n for n in names if n not in allowed]
         if bad:
-            raise InputError(f"{where}: {', '.join(bad)} has no local mode; local mode "
-                             f"supports {', '.join(LOCAL_FILTERS)} (or use --mode joint)")
-
-
-def _run_log_cmd(log_file: str, world: str | None, filters: str | None, runs: int | None,
-                 seed: int | None, out: Path | None, workers: int | None,
-                 scheduler: str | None, mode: str | None) -> None:
-    """``slam run --log FILE``: filters + smoother on a recorded log, scored against the
-    smoother; writes ``summary.json`` (atomically) and prints a table."""
-    from .recorded import DEFAULT_FILTERS, LogFormatError, log_table, read_odometry_log, run_log
-
-    for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
-                       (workers, "--workers"), (scheduler, "--scheduler")):
-        if given is not None:
-            raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
-    mode = mode or "local"
-    if filters is None:
-        names = list(DEFAULT_FILTERS)
-    else:
-        names = [v.strip() for v in filters.split(",") if v.strip()]
-        bad = [n for n in names if n not in FILTER_NAMES]
-        if not names or bad:
-            raise InputError(f"--filters: unknown filter {', '.join(bad) or '(none)'}; "
-                             f"allowed: {', '.join(FILTER_NAMES)} (comma-separated)")
-    _check_mode(names, mode, "--filters")
-    out = out or Path("out") / Path(log_file).stem
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
-    try:
-        log = read_odometry_log(log_file)
-    except LogFormatError as exc:
-        raise InputError(f"--log {exc}") from None
-
-    from threadpoolctl import threadpool_limits
-    from tqdm import tqdm
-
-    from .report import summary_json
-
-    t0 = time.perf_counter()
-    with tqdm(total=len(names) + 1, desc=f"{Path(log_file).name}: filters + smoother",
-              unit="run", file=sys.stderr, disable=None) as bar, threadpool_limits(1):
-        summary = run_log(log, names, mode=mode, progress=bar.update)
-    elapsed = time.perf_counter() - t0
-    _write_atomic(out / "summary.json", summary_json(summary))
-    click.echo(log_table(summary))
-    click.echo(f"\n{len(names)} filters ({mode} mode) + GTSAM smoother in {elapsed:.1f} s; "
-               f"results in {out}/")
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder + rename."""
-    import tempfile
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+            raise InputError(f"{where}: {', '.join(bad)} has no {mode} mode; {mode} mode "
+                             f"supports {', '.join(allowed)} (or use --mode joint)")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -13,8 +13,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from estimators import wrap_angle
-
-from .results import Array, RunScores
+from slam.results import Array, RunScores
 
 COND_LIMIT = 1e12  # covariances more ill-conditioned than this get no NEES
 

@@ -14,13 +14,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-import slam.attitude_scenario as att
+import slam.kinds.attitude.run as att
 from estimators import Transition
-from nav.attitude_sim import simulate_attitude
 from nav.quaternion import qlog, qmul, qpropagate, qto_dcm
 from nav.spaces import UnitQuaternion
-from worlds import WorldError, load_world, world_from_dict
-from worlds.attitude import AttitudeWorld
+from slam.kinds import load_world, world_from_dict
+from slam.kinds.attitude.simulate import simulate_attitude
+from slam.kinds.attitude.world import AttitudeWorld
+from worlds import WorldError
 
 DEG = math.pi / 180.0
 ARCSEC = DEG / 3600.0
@@ -396,8 +397,8 @@ def test_convergence_time() -> None:
 
 
 def test_small_campaign_end_to_end(tmp_path: Path) -> None:
-    from slam.attitude_report import REPORT, attitude_tables, figure_writers
     from slam.campaign import run_campaign
+    from slam.kinds.attitude.report import REPORT, attitude_tables, figure_writers
 
     w = short_world(60.0, **{"runs": 3, "scoring.report_convergence": True})
     result = run_campaign(w, workers=1)

@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from slam import cli
-from slam.report import summary_json
+from slam.render.tables import summary_json
 
 SMALL_WORLD = """
 kind = "planar-slam"
@@ -130,8 +130,9 @@ def _strip_timings(obj):
 
 def test_dask_local_cluster_matches_the_local_pool():
     distributed = pytest.importorskip("dask.distributed")
+    from small_worlds import small_world
+
     from slam.campaign import dask_mapper, run_campaign
-    from worlds.testing import small_world
 
     world = small_world(runs=3, filters=("ekf", "srckf"))
     local = run_campaign(world, workers=2)

@@ -12,15 +12,15 @@ import pytest
 import trimesh
 
 from estimators.ekf import numerical_jacobian
-from slam import drone_models as dm
-from slam.drone_report import (
+from slam.kinds import load_world, world_from_dict
+from slam.kinds.drone import models as dm
+from slam.kinds.drone.report import (
     REPORT,
     drone_figures,
     drone_text_table,
-    write_drone_outputs,
     write_scene_glb,
 )
-from slam.drone_scenario import (
+from slam.kinds.drone.run import (
     IMU_ONLY,
     imu_only,
     run_drone_filter,
@@ -31,18 +31,11 @@ from slam.drone_scenario import (
     terrain_of,
     truth_of,
 )
+from slam.render.output import write_outputs
 from slam.results import REFERENCE, CampaignResult
-from worlds import WorldError, load_world, world_from_dict
-from worlds import drone as drone_world
-from worlds.loader import PARSERS
+from worlds import WorldError
 
 FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
-
-
-@pytest.fixture(autouse=True)
-def register_drone_kind(monkeypatch):
-    """Until worlds/loader.py lists the kind, register it for these tests only."""
-    monkeypatch.setitem(PARSERS, drone_world.KIND, drone_world.parse)
 
 
 def small_doc(**sections: Any) -> dict[str, Any]:
@@ -275,7 +268,7 @@ def test_divergence_is_reported_not_raised():
     est = run_drone_filter(log, "srckf", diverge_m=1e-3)
     assert est.diverged and "position error" in est.failure
     s = score(est, log)
-    from slam.drone_scenario import summarize_scores
+    from slam.kinds.drone.run import summarize_scores
 
     out = summarize_scores([s])
     assert out["diverged_runs"] == 1 and out["runs_scored"] == 0 and "pos_rmse_m" not in out
@@ -323,7 +316,7 @@ def test_small_world_runs_the_whole_pipeline_in_under_15_s(tmp_path):
     table = drone_text_table(summary)
     assert "z range" in table and IMU_ONLY in table and REFERENCE in table
     out = tmp_path / "report"
-    names = [p.name for p in write_drone_outputs(result, out, plots=False)]
+    names = [p.name for p in write_outputs(result, REPORT, out, plots=False)]
     assert {"summary.json", "report.md", "report.html", "scene.glb", "truth.tum"} <= set(names)
     assert REPORT.text_table(summary) == table
     md = (out / "report.md").read_text()

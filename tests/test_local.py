@@ -16,17 +16,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from small_worlds import small_world
 
 from estimators import Euclidean, Measurement, Noise, SqrtGaussian, Transition, Wrapped
 from estimators.linalg import NotPositiveDefiniteError, chol_update, chol_update_sweep, tria
 from estimators.sigma import draw
-from slam.joint import PLANAR_LAYOUT, run_slam
-from slam.local import Layout, local_augment, local_predict, local_update
-from slam.planar_models import augmentation_model, motion_model, observation_model
-from slam.planar_scenario import run_once
-from slam.simulate import simulate_planar
+from slam.kinds.planar.models import augmentation_model, motion_model, observation_model
+from slam.kinds.planar.run import run_once
+from slam.kinds.planar.simulate import simulate_planar
+from slam.mapping.joint import PLANAR_LAYOUT, run_slam
+from slam.mapping.local import Layout, local_augment, local_predict, local_update
 from worlds.schema import WorldError
-from worlds.testing import small_world
 
 FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
 # the SRUKF with a negative centre covariance weight (beta = 0, kappa = -1)

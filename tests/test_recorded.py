@@ -12,20 +12,22 @@ from click.testing import CliRunner
 
 from estimators.ekf import numerical_jacobian
 from slam.cli import main
-from slam.planar_models import state_space
-from slam.recorded import (
+from slam.kinds.planar.models import state_space
+from slam.kinds.recorded.log import (
     LogFormatError,
     OdometryLog,
     format_odometry_log,
-    odometry_model,
     parse_odometry_log,
+    read_odometry_log,
+)
+from slam.kinds.recorded.models import (
+    odometry_model,
     point_augmentation_model,
     point_observation_model,
-    read_odometry_log,
     run_recorded,
-    score_filter,
-    smooth_recorded,
 )
+from slam.kinds.recorded.reference import smooth_recorded
+from slam.kinds.recorded.scoring import score_filter
 
 FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
 
@@ -148,7 +150,7 @@ def test_analytic_jacobians_match_numerical():
 
 def _simulated_truth_log(rng: np.random.Generator) -> tuple[OdometryLog, np.ndarray, np.ndarray]:
     """A circuit among 8 landmarks with odometry and sightings drawn from the models."""
-    from slam.recorded import pose2_compose, pose2_exp
+    from slam.kinds.recorded.models import pose2_compose, pose2_exp
 
     K = 300
     lms = np.array([[np.cos(a) * 25, np.sin(a) * 25 + 20] for a in np.linspace(0, 6, 8)])
@@ -190,7 +192,7 @@ def test_filters_track_a_simulated_recorded_log_consistently():
         assert 0.2 < nees.mean() / 3 < 3.0, (name, nees.mean() / 3)
         lm_err = np.linalg.norm(r.landmarks - lms[r.landmark_ids - 1000], axis=1)
         assert lm_err.max() < 1.0
-    from slam.recorded import dead_reckoning_poses
+    from slam.kinds.recorded.models import dead_reckoning_poses
 
     dr_end = np.hypot(*(dead_reckoning_poses(log)[-1, :2] - poses[-1, :2]))
     assert np.hypot(*(r.poses[-1, :2] - poses[-1, :2])) < dr_end
@@ -242,5 +244,5 @@ def test_cli_runs_a_log_and_writes_strict_summary(tmp_path):
     assert data["poses"] == 30 and "objective" in data["reference"]["gtsam"]
     assert "landmark_dist_to_ref_max_m" in data["filters"]["srckf"]
     assert "srckf" in res.output and "gtsam" in res.output
-    assert [p.name for p in out.iterdir()] == ["summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md", "summary.json"]
     assert Path(path).exists()

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from slam.log import PlanarLog
-from slam.reference import (
+from slam.kinds.planar.log import PlanarLog
+from slam.kinds.planar.reference import (
     body_to_world_cov,
     epoch_steps_of,
     interpolate_reference,

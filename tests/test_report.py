@@ -12,11 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from small_worlds import small_world
 
-from slam import report
 from slam.campaign import run_campaign
+from slam.kinds.planar import report
+from slam.render import output, tables
 from slam.results import CampaignResult
-from worlds.testing import small_world
 
 FILTERS = ("ekf", "srckf")
 ROWS = [*FILTERS, "odometry", "gtsam"]
@@ -59,7 +60,7 @@ def result() -> CampaignResult:
 @pytest.fixture(scope="module")
 def written(result, tmp_path_factory) -> tuple[Path, list[Path]]:
     out = tmp_path_factory.mktemp("report") / "small"
-    return out, report.write_outputs(result, out)
+    return out, output.write_outputs(result, report.REPORT, out)
 
 
 def _table_names(markdown: str) -> list[str]:
@@ -112,12 +113,12 @@ def test_results_row_values(result):
     assert rows["ekf"][1] == f"{ekf['pos_rmse_m']:.3f}"
     assert rows["ekf"][8] == f"{ekf['time_per_step_s'] * 1e6:.1f}"
     assert rows["ekf"][9] == "0/2"
-    assert rows["odometry"][5] == report.MISSING  # no landmarks
-    assert rows["gtsam"][7] == report.MISSING  # no NIS
+    assert rows["odometry"][5] == tables.MISSING  # no landmarks
+    assert rows["gtsam"][7] == tables.MISSING  # no NIS
 
 
 def test_text_table_is_aligned(result):
-    lines = report.text_table(result.summary).splitlines()
+    lines = report.REPORT.text_table(result.summary).splitlines()
     assert [ln.split()[0] for ln in lines[2:]] == ROWS
     assert len(lines) == 2 + len(ROWS)
     # right-aligned numeric columns: every row's pos RMSE ends at the same column
@@ -189,7 +190,7 @@ def test_failure_mid_way_leaves_old_output(result, tmp_path, monkeypatch):
 
     monkeypatch.setattr(report, "plot_errors_xy", boom)
     with pytest.raises(RuntimeError, match="plot failed"):
-        report.write_outputs(result, out)
+        output.write_outputs(result, report.REPORT, out)
     assert drawn and drawn[0].parent != out  # rendering happened in a temp dir
     assert _contents(out) == old
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
@@ -208,7 +209,7 @@ def test_failed_swap_restores_old_output(result, tmp_path, monkeypatch):
 
     monkeypatch.setattr(os, "rename", flaky_rename)
     with pytest.raises(OSError, match="disk gone"):
-        report.write_outputs(result, out, plots=False)
+        output.write_outputs(result, report.REPORT, out, plots=False)
     assert _contents(out) == old
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
 
@@ -217,7 +218,7 @@ def test_success_replaces_old_output(result, tmp_path):
     out = tmp_path / "run"
     _sentinel(out)
     (out / "stale.png").write_text("stale")
-    paths = report.write_outputs(result, out, plots=False)
+    paths = output.write_outputs(result, report.REPORT, out, plots=False)
     names = {p.name for p in out.iterdir()}
     assert names == {p.name for p in paths}
     assert "stale.png" not in names and not FIGURES & names
@@ -230,16 +231,16 @@ def test_nan_becomes_null(result, tmp_path):
     summary["filters"]["ekf"]["anees"] = float("nan")
     summary["filters"]["ekf"]["pos_rmse_m"] = np.float64(np.inf)
     summary["filters"]["ekf"]["extra"] = np.array([1.0, np.nan])
-    text = report.summary_json(summary)
+    text = tables.summary_json(summary)
     assert "NaN" not in text and "Infinity" not in text
     loaded = strict_loads(text)
     assert loaded["filters"]["ekf"]["anees"] is None
     assert loaded["filters"]["ekf"]["pos_rmse_m"] is None
     assert loaded["filters"]["ekf"]["extra"] == [1.0, None]
     row = report.result_rows(summary)[0]
-    assert row[1] == report.MISSING and row[6] == report.MISSING
+    assert row[1] == tables.MISSING and row[6] == tables.MISSING
 
-    paths = report.write_outputs(replace(result, summary=summary), tmp_path / "nan",
+    paths = output.write_outputs(replace(result, summary=summary), report.REPORT, tmp_path / "nan",
                                  plots=False)
     on_disk = strict_loads(paths[0].read_text())
     assert paths[0].name == "summary.json"
@@ -248,4 +249,4 @@ def test_nan_becomes_null(result, tmp_path):
 
 def test_unserialisable_value_is_an_error():
     with pytest.raises(TypeError, match="object"):
-        report.summary_json({"bad": object()})
+        tables.summary_json({"bad": object()})

@@ -9,11 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from small_worlds import small_world
 
-from slam.log import PlanarLog, load_log, save_log
-from slam.simulate import simulate_planar
-from worlds import World, WorldError, load_world
-from worlds.testing import small_world
+from slam.kinds import load_world
+from slam.kinds.planar.log import PlanarLog, load_log, save_log
+from slam.kinds.planar.simulate import simulate_planar
+from slam.kinds.planar.world import World
+from worlds import WorldError
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +58,7 @@ def test_same_seed_same_log_different_seed_different_noise(bailey: World) -> Non
 
 
 def replay(x0: np.ndarray, controls: np.ndarray, dt: float, wb: float) -> np.ndarray:
-    """Bailey's car model written out independently of slam.simulate."""
+    """Bailey's car model written out independently of slam.kinds.planar.simulate."""
     out = [tuple(float(v) for v in x0)]
     for v, g in controls.tolist():
         x, y, phi = out[-1]

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from small_worlds import small_world
 
-from slam.joint import dead_reckoning, epochs_of, run_slam
-from slam.simulate import simulate_planar
-from worlds.testing import small_world
+from slam.kinds.planar.simulate import simulate_planar
+from slam.mapping.joint import dead_reckoning, epochs_of, run_slam
 
 SLAM_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
 
@@ -105,7 +105,7 @@ def test_divergence_threshold_is_reported():
 
 
 def test_gated_choice_accepts_best_normalised_distance_new_or_ambiguous():
-    from slam.association import NEW, gated_choice
+    from slam.mapping.association import NEW, gated_choice
 
     S = np.stack([np.eye(2), 4.0 * np.eye(2), np.eye(2)])
     # two candidates inside the gate: NIS 1.0 (det 1) vs NIS 0.5 (det 16): the normalised

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nav.euler import euler_zyx_to_q, q_to_euler_zyx
-from nav.imu_sim import FlightPlan, ImuErrors, corrupt_imu, fly, steer
+from nav.imu_errors import ImuErrors, corrupt_imu
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate
 from nav.strapdown import (
     SERIES_BELOW,
@@ -22,6 +22,7 @@ from nav.strapdown import (
     prefix_products,
 )
 from nav.terrain import Terrain
+from slam.kinds.drone.flight import FlightPlan, fly, steer
 
 G = gravity_enu()
 

@@ -9,9 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from small_worlds import small_world
 
-from worlds import World, WorldError, list_worlds, load_world
-from worlds.testing import small_world
+from slam.kinds import list_worlds, load_world
+from slam.kinds.planar.world import World
+from worlds import WorldError
 
 BUNDLED = ("bailey", "webmap", "densemap")
 

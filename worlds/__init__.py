@@ -1,30 +1,11 @@
-"""Bundled world files (TOML) and the loader/validator for them.
+"""Bundled world files (TOML), how to read them, and the schema engine that the scenario
+kinds (:mod:`slam.kinds`) validate them with.
 
->>> from worlds import load_world
+>>> from slam.kinds import load_world
 >>> world = load_world("bailey")
 """
 
-from worlds.loader import PARSERS, list_worlds, load_world, world_from_dict
-from worlds.planar import (
-    ControlNoise,
-    FilterSpec,
-    MapSpec,
-    RangeBearingSpec,
-    VehicleSpec,
-    World,
-)
+from worlds.loader import WorldDocument, bundled_names, read_world
 from worlds.schema import WorldError
 
-__all__ = [
-    "PARSERS",
-    "ControlNoise",
-    "FilterSpec",
-    "MapSpec",
-    "RangeBearingSpec",
-    "VehicleSpec",
-    "World",
-    "WorldError",
-    "list_worlds",
-    "load_world",
-    "world_from_dict",
-]
+__all__ = ["WorldDocument", "WorldError", "bundled_names", "read_world"]

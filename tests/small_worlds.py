@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from worlds.loader import world_from_dict
-from worlds.planar import World
+from slam.kinds import world_from_dict
+from slam.kinds.planar.world import World
 
 SQUARE_WAYPOINTS = [[30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]]
 SQUARE_LANDMARKS = [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0], [-6.0, 15.0]]

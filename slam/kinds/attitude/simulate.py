@@ -51,8 +51,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .euler import euler_zxy_to_q
-from .quaternion import qconj, qexp, qlog, qmul, qnormalize, qrotate
+from nav.euler import euler_zxy_to_q
+from nav.quaternion import qconj, qexp, qlog, qmul, qnormalize, qrotate
 
 Array = NDArray[np.float64]
 

@@ -36,20 +36,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from .report import (  # noqa: E402
-    DPI,
+from slam.render.document import KindReport, Section  # noqa: E402
+from slam.render.plotting import envelope, good_scores, run0, save  # noqa: E402
+from slam.render.tables import (  # noqa: E402
     MISSING,
-    KindReport,
-    Section,
-    _interval,
-    _num,
     estimator_entries,
+    interval,
     markdown_table,
+    num,
+    paper_range,
     paper_rows,
     plain_table,
-    write_outputs,
 )
-from .results import REFERENCE, CampaignResult  # noqa: E402
+from slam.results import REFERENCE, CampaignResult  # noqa: E402
 
 IMU_ONLY = "imu_only"
 _FILTER_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:brown",
@@ -67,29 +66,29 @@ COLUMNS = ("estimator", "pos RMSE (m)", "x range (m)", "y range (m)", "z range (
 # --------------------------------------------------------------------------- tables
 
 def _band_cell(entry: dict[str, Any], key: str, band: str) -> str:
-    value = _num(entry.get(key), ".2f")
+    value = num(entry.get(key), ".2f")
     if value == MISSING:
         return MISSING
-    b = _interval(entry.get(band), ".2f")
+    b = interval(entry.get(band), ".2f")
     return value if b == MISSING else f"{value} {b}"
 
 
 def _row(name: str, e: dict[str, Any]) -> list[str]:
     ranges = e.get("pos_err_range_m") or {}
     att = e.get("att_rmse_deg") or {}
-    att_cell = "/".join(_num(att.get(a), ".3f") for a in _ATT) if att else MISSING
+    att_cell = "/".join(num(att.get(a), ".3f") for a in _ATT) if att else MISSING
     scored, diverged = e.get("runs_scored"), e.get("diverged_runs")
     runs = "" if scored is None or diverged is None else f"/{scored + diverged}"
     return [
         name,
-        _num(e.get("pos_rmse_m"), ".3f"),
-        *(_interval(ranges.get(a)) for a in _AXES),
+        num(e.get("pos_rmse_m"), ".3f"),
+        *(interval(ranges.get(a)) for a in _AXES),
         att_cell,
-        _num(e.get("landmark_rmse_m"), ".3f"),
+        num(e.get("landmark_rmse_m"), ".3f"),
         _band_cell(e, "anees", "anees_bounds_95"),
         _band_cell(e, "anees_pose6", "anees_pose6_bounds_95"),
-        _num(e.get("nis_mean"), ".2f"),
-        _num(e.get("time_per_step_s"), ".2f", 1e3),
+        num(e.get("nis_mean"), ".2f"),
+        num(e.get("time_per_step_s"), ".2f", 1e3),
         MISSING if diverged is None else f"{diverged}{runs}",
     ]
 
@@ -123,8 +122,8 @@ def drift_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
         rm, mx = e.get("loop_pos_rmse_m") or [], e.get("loop_pos_max_err_m") or []
         row = [name]
         for i in range(n_loops):
-            row += [_num(rm[i] if i < len(rm) else None, ".3f"),
-                    _num(mx[i] if i < len(mx) else None, ".3f")]
+            row += [num(rm[i] if i < len(rm) else None, ".3f"),
+                    num(mx[i] if i < len(mx) else None, ".3f")]
         rows.append(row)
     return header, rows
 
@@ -215,45 +214,9 @@ def _colours(result: CampaignResult) -> dict[str, str]:
     return out
 
 
-def _run0(result: CampaignResult):
-    first = result.outcomes[0]
-    if first.truth is None or first.times is None or not first.tracks:
-        raise ValueError("run 0 of the campaign kept no tracks: nothing to plot")
-    return first
-
-
-def _good(result: CampaignResult, name: str) -> list:
-    return [o.scores[name] for o in result.outcomes
-            if name in o.scores and not o.scores[name].diverged]
-
-
-def _envelope(scores: list, attr: str, col: int, scale: float = 1.0):
-    if not scores:
-        return None
-    a = np.stack([getattr(s, attr)[:, col] for s in scores]) * scale
-    if not np.isfinite(a).any():
-        return None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return np.nanmin(a, axis=0), np.nanmax(a, axis=0)
-
-
-def _paper_range(summary: dict[str, Any], name: str, axis: str) -> list[float] | None:
-    f = ((summary.get("paper") or {}).get("filters") or {}).get(name) or {}
-    r = (f.get("pos_err_range_m") or {}).get(axis)
-    return list(r) if isinstance(r, list | tuple) and len(r) == 2 else None
-
-
-def _save(fig, path: Path) -> None:
-    try:
-        fig.savefig(path, dpi=DPI)
-    finally:
-        plt.close(fig)
-
-
 def _error_grid(result: CampaignResult, path: Path, attr: str, sig: str, labels: Sequence[str],
                 unit: str, scale: float, paper: bool, title: str) -> None:
-    first = _run0(result)
+    first = run0(result)
     names = _filters(result)
     colours = _colours(result)
     t = first.times
@@ -263,18 +226,19 @@ def _error_grid(result: CampaignResult, path: Path, attr: str, sig: str, labels:
     lim = np.zeros(3)
     for row, name in enumerate(names):
         c = colours[name]
-        run0 = first.scores.get(name)
+        sc0 = first.scores.get(name)
         for col, axis in enumerate(labels):
             ax = axes[row, col]
-            env = _envelope(_good(result, name), attr, col, scale)
+            env = envelope(good_scores(result, name),
+                           lambda s, a=attr, c=col: getattr(s, a)[:, c] * scale)
             if env is not None:
                 ax.fill_between(t, env[0], env[1], color=c, alpha=0.15, lw=0)
                 lim[col] = max(lim[col], float(np.nanmax(np.abs(env))))
-            if run0 is not None and not run0.diverged:
-                sd = getattr(run0, sig)[:, col] * scale
+            if sc0 is not None and not sc0.diverged:
+                sd = getattr(sc0, sig)[:, col] * scale
                 ax.plot(t, 2 * sd, color=c, lw=0.7, alpha=0.55)
                 ax.plot(t, -2 * sd, color=c, lw=0.7, alpha=0.55)
-                ax.plot(t, getattr(run0, attr)[:, col] * scale, color=c, lw=1.0)
+                ax.plot(t, getattr(sc0, attr)[:, col] * scale, color=c, lw=1.0)
             elif col == 0:
                 ax.text(0.01, 0.95, "diverged on run 0", transform=ax.transAxes, va="top",
                         fontsize=8, color=c)
@@ -282,7 +246,7 @@ def _error_grid(result: CampaignResult, path: Path, attr: str, sig: str, labels:
                 ax.plot(t, getattr(ref, attr)[:, col] * scale, color=_REF_COLOUR, lw=0.7,
                         alpha=0.8)
             if paper:
-                pr = _paper_range(result.summary, name, axis)
+                pr = paper_range(result.summary, name, axis)
                 if pr is not None:
                     for v in pr:
                         ax.axhline(v, color=c, ls="--", lw=1.2)
@@ -307,7 +271,7 @@ def _error_grid(result: CampaignResult, path: Path, attr: str, sig: str, labels:
     fig.legend(handles=legend, loc="outside lower center", fontsize=8, ncols=len(legend),
                frameon=False)
     fig.suptitle(f"{result.summary.get('world', '')}: {title}", fontsize=11)
-    _save(fig, path)
+    save(fig, path)
 
 
 def plot_errors_xyz(result: CampaignResult, path: Path) -> None:
@@ -324,7 +288,7 @@ def plot_attitude(result: CampaignResult, path: Path) -> None:
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
     """``nees.png``: run-averaged position NEES / 3 and pose NEES / 6 vs time."""
-    first = _run0(result)
+    first = run0(result)
     colours = _colours(result)
     t = first.times
     fig, axes = plt.subplots(1, 2, figsize=(13.0, 4.6), layout="constrained", sharey=True)
@@ -334,7 +298,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
              "pose NEES / 6")):
         band = None
         for name in [*_filters(result), REFERENCE]:
-            scores = _good(result, name)
+            scores = good_scores(result, name)
             if not scores:
                 continue
             nees = np.stack([getattr(s, attr) for s in scores])
@@ -358,17 +322,17 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
         ax.legend(fontsize=8, frameon=False)
     fig.suptitle(f"{result.summary.get('world', '')}: consistency (run average)", fontsize=11)
-    _save(fig, path)
+    save(fig, path)
 
 
 def plot_drift(result: CampaignResult, path: Path) -> None:
     """``drift.png``: median and 90 % quantile of the position error norm vs time."""
-    first = _run0(result)
+    first = run0(result)
     colours = _colours(result)
     t = first.times
     fig, ax = plt.subplots(figsize=(10.5, 4.6), layout="constrained")
     for name in [IMU_ONLY, *_filters(result), REFERENCE]:
-        scores = _good(result, name)
+        scores = good_scores(result, name)
         if not scores:
             continue
         norm = np.stack([np.linalg.norm(s.err_pos, axis=1) for s in scores])
@@ -388,18 +352,18 @@ def plot_drift(result: CampaignResult, path: Path) -> None:
                  "dashed line: end of loop 1)", fontsize=10)
     ax.grid(True, which="both", lw=0.3, alpha=0.5)
     ax.legend(fontsize=8, frameon=False, ncols=3)
-    _save(fig, path)
+    save(fig, path)
 
 
 def _terrain(result: CampaignResult):
-    from .drone_scenario import terrain_of
+    from slam.kinds.drone.run import terrain_of
 
     return terrain_of(result.world)
 
 
 def plot_view3d(result: CampaignResult, path: Path) -> None:
     """``view3d.png``: terrain surface, landmarks, true / filtered / smoothed paths."""
-    first = _run0(result)
+    first = run0(result)
     colours = _colours(result)
     world = result.world
     xmin, xmax, ymin, ymax = world.map.bounds_m
@@ -434,7 +398,7 @@ def plot_view3d(result: CampaignResult, path: Path) -> None:
     ax.view_init(elev=35, azim=-60)
     ax.legend(fontsize=8, loc="upper left", frameon=False)
     ax.set_title(f"{result.summary.get('world', '')}: run 0", fontsize=11)
-    _save(fig, path)
+    save(fig, path)
 
 
 FIGURES = {"errors_xyz.png": plot_errors_xyz, "attitude.png": plot_attitude,
@@ -496,7 +460,7 @@ def write_scene_glb(result: CampaignResult, path: str | Path) -> Path:
     landmarks (small spheres in its colour) and run 0's paths as tubes."""
     import trimesh
 
-    first = _run0(result)
+    first = run0(result)
     colours = _colours(result)
     scene = trimesh.Scene()
     ground = _terrain(result).mesh.copy()
@@ -567,9 +531,3 @@ def drone_extra_files(result: CampaignResult, out_dir: Path) -> list[str]:
 REPORT = KindReport("quaternion SINS/SLAM campaign", drone_sections, drone_figure_table,
                     drone_text_table, drone_extra_files)
 
-
-def write_drone_outputs(result: CampaignResult, out_dir: str | Path, *, plots: bool = True
-                        ) -> list[Path]:
-    """The campaign's report folder, atomically (:func:`slam.report.write_outputs`, which
-    dispatches on the summary's ``kind`` to :data:`REPORT`)."""
-    return write_outputs(result, Path(out_dir), plots=plots)

@@ -1,7 +1,7 @@
 """Figures and tables of an ``attitude`` (star-sensor) campaign.
 
 Figure functions take a :class:`~slam.results.CampaignResult` from
-:func:`slam.attitude_scenario.run_once` / ``summarize_attitude`` and a path:
+:func:`slam.kinds.attitude.run.run_once` / ``summarize_attitude`` and a path:
 
     attitude_errors.png  run 0: roll / pitch / yaw error (Z-X-Y, arcsec) vs time per
                          estimator, with the estimator's own ±3σ band
@@ -26,17 +26,11 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
 
-from .attitude_scenario import ARCSEC, AXES, DEG_H  # noqa: E402
-from .report import (  # noqa: E402
-    DPI,
-    MISSING,
-    KindReport,
-    Section,
-    _num,
-    estimator_entries,
-    markdown_table,
-)
-from .results import REFERENCE, CampaignResult  # noqa: E402
+from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H  # noqa: E402
+from slam.render.document import KindReport, Section  # noqa: E402
+from slam.render.plotting import run0, save  # noqa: E402
+from slam.render.tables import MISSING, estimator_entries, markdown_table, num  # noqa: E402
+from slam.results import REFERENCE, CampaignResult  # noqa: E402
 
 _COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:brown", "tab:pink",
             "tab:olive", "tab:cyan")
@@ -48,11 +42,11 @@ _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
 def _triple(d: Any, fmt: str = ".1f") -> list[str]:
     d = d if isinstance(d, dict) else {}
-    return [_num(d.get(a), fmt) for a in AXES]
+    return [num(d.get(a), fmt) for a in AXES]
 
 
 def _anees(entry: dict[str, Any], key: str = "anees") -> str:
-    value = _num(entry.get(key), ".2f")
+    value = num(entry.get(key), ".2f")
     band = entry.get("anees_bounds_95")
     if value == MISSING or not isinstance(band, list | tuple) or len(band) != 2:
         return value
@@ -77,14 +71,14 @@ def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter and the smoother (columns :data:`RESULT_HEADER`)."""
     rows = []
     for name, e in estimator_entries(summary):
-        time_cell = (_num(e.get("time_per_cycle_s"), ".3f", 1e3) if name != REFERENCE
-                     else f"{_num(e.get('time_s'), '.2f')} s/run")
+        time_cell = (num(e.get("time_per_cycle_s"), ".3f", 1e3) if name != REFERENCE
+                     else f"{num(e.get('time_s'), '.2f')} s/run")
         diverged = e.get("diverged_runs")
         scored = e.get("runs_scored")
         rows.append([_label(name), *_triple(e.get("att_mean_abs_arcsec")),
                      *_triple(e.get("att_mean_abs_steady_arcsec")),
                      *_triple(e.get("att_rms_steady_arcsec")),
-                     _num(e.get("bias_rmse_deg_h"), ".3f"), _anees(e),
+                     num(e.get("bias_rmse_deg_h"), ".3f"), _anees(e),
                      _anees(e, "anees_steady"), time_cell,
                      MISSING if diverged is None else f"{diverged}/{(scored or 0) + diverged}"])
     return rows
@@ -99,17 +93,17 @@ def paper_rows(summary: dict[str, Any]) -> list[list[str]]:
         o = ours.get(name) or {}
         mine = o.get("att_mean_abs_arcsec") or {}
         rows.append([_label(name),
-                     _num(p.get("roll_arcsec"), ".0f"), _num(mine.get("roll"), ".1f"),
-                     _num(p.get("pitch_arcsec"), ".0f"), _num(mine.get("pitch"), ".1f"),
-                     _num(p.get("yaw_arcsec"), ".0f"), _num(mine.get("yaw"), ".1f"),
-                     _num(p.get("time_per_iteration_s"), ".3f"),
-                     _num(o.get("time_per_cycle_s"), ".4f")])
+                     num(p.get("roll_arcsec"), ".0f"), num(mine.get("roll"), ".1f"),
+                     num(p.get("pitch_arcsec"), ".0f"), num(mine.get("pitch"), ".1f"),
+                     num(p.get("yaw_arcsec"), ".0f"), num(mine.get("yaw"), ".1f"),
+                     num(p.get("time_per_iteration_s"), ".3f"),
+                     num(o.get("time_per_cycle_s"), ".4f")])
     return rows
 
 
 def convergence_rows(summary: dict[str, Any]) -> list[list[str]]:
-    return [[_label(n), _num(e.get("converge_below_1arcmin_s"), ".1f"),
-             _num(e.get("converge_below_1arcmin_max_s"), ".1f"),
+    return [[_label(n), num(e.get("converge_below_1arcmin_s"), ".1f"),
+             num(e.get("converge_below_1arcmin_max_s"), ".1f"),
              str(e.get("never_below_1arcmin_runs", MISSING))]
             for n, e in estimator_entries(summary) if "converge_below_1arcmin_s" in e]
 
@@ -118,7 +112,7 @@ def _results_text(summary: dict[str, Any]) -> str:
     window = summary.get("steady_state_window_s") or [None, None]
     return (f"Attitude errors in arcsec, Z-X-Y Euler angles (the paper's), mean absolute over "
             f"the whole run and over the steady-state window (ss) "
-            f"{_num(window[0], 'g')}-{_num(window[1], 'g')} s; {summary.get('runs', '?')} "
+            f"{num(window[0], 'g')}-{num(window[1], 'g')} s; {summary.get('runs', '?')} "
             "runs. `ekf` is the multiplicative EKF (MEKF). The smoother's time is per run "
             "(graph, preintegration and solve). Cycle times are wall-clock inside the "
             "campaign's workers (see `benchmarks/star_sensor_speed.py` for an unloaded figure).")
@@ -190,29 +184,15 @@ def _colours(names: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def _run0(result: CampaignResult):
-    first = result.outcomes[0]
-    if first.truth is None or first.times is None or not first.tracks:
-        raise ValueError("run 0 of the campaign kept no tracks: nothing to plot")
-    return first
-
-
 def _estimators(result: CampaignResult) -> list[str]:
     names = list((result.summary.get("filters") or {}).keys())
     first = result.outcomes[0]
     return [n for n in [*names, REFERENCE] if n in first.scores]
 
 
-def _save(fig: plt.Figure, path: Path) -> None:
-    try:
-        fig.savefig(path, dpi=DPI)
-    finally:
-        plt.close(fig)
-
-
 def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     """Run 0's roll/pitch/yaw errors (arcsec) with ±3σ, one column per estimator."""
-    first = _run0(result)
+    first = run0(result)
     t = first.times
     names = _estimators(result)
     colours = _colours(names)
@@ -249,12 +229,12 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=8, frameon=False)
     fig.suptitle(f"{result.summary.get('world', '')}: run 0 attitude errors "
                  "(Z-X-Y Euler, arcsec) and each estimator's ±3σ", fontsize=10)
-    _save(fig, path)
+    save(fig, path)
 
 
 def plot_bias(result: CampaignResult, path: Path) -> None:
     """Run 0's gyro-bias estimates vs the truth (deg/h), one panel per axis."""
-    first = _run0(result)
+    first = run0(result)
     t = first.times
     truth = first.truth[:, 4:] / DEG_H
     names = [n for n in _estimators(result) if n in first.tracks]
@@ -288,7 +268,7 @@ def plot_bias(result: CampaignResult, path: Path) -> None:
     fig.suptitle(f"{result.summary.get('world', '')}: run 0 gyro-bias estimates vs truth "
                  "(the first seconds' transient is off the scale;\n"
                  "coinciding filters are drawn with decreasing line widths)", fontsize=10)
-    _save(fig, path)
+    save(fig, path)
 
 
 def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:

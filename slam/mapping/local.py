@@ -1,6 +1,6 @@
 r"""Block-local SLAM steps: sigma points only over the blocks a step touches.
 
-In ``joint`` mode (:mod:`slam.joint`) every predict, update and augmentation draws sigma
+In ``joint`` mode (:mod:`slam.mapping.joint`) every predict, update and augmentation draws sigma
 points over the whole joint state :math:`s = [v;\ m_1; \dots; m_N]` (vehicle first).
 In ``local`` mode a step draws points only over the block it touches - the vehicle and
 the control noise for a prediction, the vehicle and the observed landmarks for an update,

@@ -29,9 +29,7 @@ The truth is built in four steps, all deterministic (no randomness until
    millimetre over a flight).  So a noise-free log mechanised by the filters' own
    strapdown reproduces the truth to round-off.
 
-:func:`corrupt_imu` adds the sensor errors: per axis a constant bias drawn from
-:math:`N(0, \sigma_b^2)`, a bias random walk (:math:`\sigma_{rw}\sqrt{\Delta t}` per sample)
-and white noise (:math:`\sigma_{wn}/\sqrt{\Delta t}` per sample).
+:func:`nav.imu_errors.corrupt_imu` adds the sensor errors.
 """
 
 from __future__ import annotations
@@ -44,12 +42,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter1d
 
-from .quaternion import dcm_to_q
-from .strapdown import ideal_imu, mechanise
+from estimators import wrap_angle
+from nav.quaternion import dcm_to_q
+from nav.strapdown import ideal_imu, mechanise
 
 Array = NDArray[np.float64]
 
-__all__ = ["FlightPlan", "ImuErrors", "ImuLog", "Trajectory", "corrupt_imu", "fly", "steer"]
+__all__ = ["FlightPlan", "Trajectory", "fly", "steer"]
 
 
 @dataclass(frozen=True)
@@ -100,10 +99,6 @@ class Trajectory:
         return self.gyro.shape[0]
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def steer(plan: FlightPlan, max_duration_s: float | None = None
           ) -> tuple[Array, Array, Array, NDArray[np.int64]]:
     """Fly the horizontal path; returns ``xy`` (K+1, 2), heading ``psi`` (K+1,), heading
@@ -141,7 +136,7 @@ def steer(plan: FlightPlan, max_duration_s: float | None = None
                             np.array(ends, dtype=np.int64))
                 iwp = 0
             wx, wy = wps[iwp]
-        err = _wrap(math.atan2(wy - y, wx - x) - psi)
+        err = wrap_angle(math.atan2(wy - y, wx - x) - psi)
         cmd = max(-rmax, min(rmax, gain * err))
         acc = max(-amax, min(amax, (cmd - r) / dt))
         psi1 = psi + r * dt + 0.5 * acc * dt * dt
@@ -206,48 +201,3 @@ def fly(plan: FlightPlan, ground: Callable[[Array], Array], gravity: Array,
     P, Vt, Q = mechanise(p0[None], v[:1], q[:1], gyro, accel, dt, g, earth_rate,
                          all_samples=True)
     return Trajectory(dt, P[0], Vt[0], Q[0], gyro, accel, base, ends)
-
-
-@dataclass(frozen=True)
-class ImuErrors:
-    """IMU error model (SI; densities per √s) - see :class:`worlds.drone.ImuSpec`."""
-
-    gyro_bias_sigma: float
-    gyro_bias_rw: float
-    gyro_arw: float
-    accel_bias_sigma: float
-    accel_bias_rw: float
-    accel_vrw: float
-
-
-@dataclass(frozen=True)
-class ImuLog:
-    """Measured IMU samples (K, 3) and the true biases (K + 1, 3) at every sample
-    (reading ``k`` carries ``bias[k]``)."""
-
-    gyro: Array
-    accel: Array
-    bias_gyro: Array
-    bias_accel: Array
-
-
-def corrupt_imu(gyro: Array, accel: Array, dt: float, errors: ImuErrors,
-                rng: np.random.Generator, scale: float = 1.0) -> ImuLog:
-    """Add biases, bias random walks and white noise to error-free readings.
-
-    Draw order (fixed, for reproducibility): gyro bias, accel bias, gyro bias walk, accel
-    bias walk, gyro white noise, accel white noise.  ``scale`` multiplies every sigma
-    (``0``: an error-free log).
-    """
-    K = gyro.shape[0]
-    e = errors
-    bg0 = rng.standard_normal(3) * (scale * e.gyro_bias_sigma)
-    ba0 = rng.standard_normal(3) * (scale * e.accel_bias_sigma)
-    sq = math.sqrt(dt)
-    wg = rng.standard_normal((K, 3)) * (scale * e.gyro_bias_rw * sq)
-    wa = rng.standard_normal((K, 3)) * (scale * e.accel_bias_rw * sq)
-    ng = rng.standard_normal((K, 3)) * (scale * e.gyro_arw / sq)
-    na = rng.standard_normal((K, 3)) * (scale * e.accel_vrw / sq)
-    bg = bg0 + np.vstack([np.zeros(3), np.cumsum(wg, axis=0)])
-    ba = ba0 + np.vstack([np.zeros(3), np.cumsum(wa, axis=0)])
-    return ImuLog(gyro + bg[:-1] + ng, accel + ba[:-1] + na, bg, ba)

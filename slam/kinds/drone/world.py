@@ -48,7 +48,8 @@ from typing import Any
 
 import numpy as np
 
-from worlds.planar import MapSpec, filters_section
+from estimators import wrap_angle
+from slam.kinds.planar.world import MapSpec, filters_section
 from worlds.schema import (
     Boolean,
     FreeForm,
@@ -194,7 +195,7 @@ class DroneVehicleSpec:
     altitude reference (ground height + ``height_above_ground_m``) is smoothed over
     ``altitude_smoothing_s`` (σ of a Gaussian in time) to bound the vertical acceleration.
     ``drag_per_s``: linear drag per unit mass; the thrust axis tilts to cancel it (the
-    drone flies nose-down), see :mod:`nav.imu_sim`.
+    drone flies nose-down), see :mod:`slam.kinds.drone.flight`.
     """
 
     speed_mps: float = 3.0
@@ -383,7 +384,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     if heading is None:  # towards the first waypoint
         wx, wy = m["waypoints"][0]
         heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
-    heading = (heading + math.pi) % (2.0 * math.pi) - math.pi
+    heading = wrap_angle(float(heading))
 
     ratio = imu["rate_hz"] / sen["rate_hz"]
     if not (_is_whole(ratio) and round(ratio) >= 1):

@@ -13,11 +13,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from .joint import dead_reckoning, epochs_of, run_slam
-from .reference import interpolate_reference, smooth_planar
-from .results import ODOMETRY, REFERENCE, RunOutcome, Track
-from .scoring import reduce_run, summarize
-from .simulate import simulate_planar
+from slam.kinds.planar.reference import interpolate_reference, smooth_planar
+from slam.kinds.planar.simulate import simulate_planar
+from slam.mapping.joint import dead_reckoning, epochs_of, run_slam
+from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
+from slam.scoring import reduce_run, summarize
 
 
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],

@@ -30,15 +30,11 @@ import math
 import numpy as np
 
 from estimators import wrap_angle
-from slam.log import PlanarLog
-from worlds.planar import World
+from slam.kinds.planar.log import PlanarLog
+from slam.kinds.planar.world import World
 from worlds.schema import WorldError
 
 TWO_PI = 2.0 * math.pi
-
-
-def _wrap1(a: float) -> float:
-    return (a + math.pi) % TWO_PI - math.pi
 
 
 def drive(world: World, start: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -75,12 +71,12 @@ def drive(world: World, start: tuple[float, float, float]) -> tuple[np.ndarray, 
                     return np.column_stack([xs, ys, phis]), np.array(steers)
                 iwp = 0
             wx, wy = wps[iwp]
-        dg = _wrap1(math.atan2(wy - y, wx - x) - phi - g)
+        dg = wrap_angle(math.atan2(wy - y, wx - x) - phi - g)
         g += max(-max_dg, min(max_dg, dg))
         g = max(-max_g, min(max_g, g))
         x = x + vdt * math.cos(g + phi)
         y = y + vdt * math.sin(g + phi)
-        phi = _wrap1(phi + vdt * math.sin(g) / wb)
+        phi = wrap_angle(phi + vdt * math.sin(g) / wb)
         xs.append(x)
         ys.append(y)
         phis.append(phi)

@@ -62,13 +62,12 @@ from numpy.typing import NDArray
 
 from estimators import Euclidean, Measurement, Noise, Product, Transition, make_filter, wrap_angle
 from estimators.linalg import NotPositiveDefiniteError
-from nav.attitude_sim import AttitudeLog, AttitudeSimConfig, simulate_attitude
 from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
 from nav.quaternion import dcm_to_q, qconj, qexp, qmul, qnormalize, qrotate, skew
 from nav.spaces import UnitQuaternion
-
-from .results import REFERENCE, RunOutcome
-from .scoring import anees_band
+from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
+from slam.results import REFERENCE, RunOutcome
+from slam.scoring import anees_band
 
 Array = NDArray[np.float64]
 

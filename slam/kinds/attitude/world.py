@@ -22,7 +22,7 @@ radians on load; the dataclasses name their SI units.  File layout::
     [paper]        free-form: the paper's reported numbers, passed through to summary.json
 
 The navigation frame is inertial and coincides with the orbit (LVLH) frame at t = 0;
-see :mod:`nav.attitude_sim` for the motion.
+see :mod:`slam.kinds.attitude.simulate` for the motion.
 """
 
 from __future__ import annotations

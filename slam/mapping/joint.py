@@ -1,11 +1,11 @@
 r"""Vehicle-map SLAM: one mean and one (square-root) covariance over the vehicle and
-every landmark seen so far, run over a :class:`~slam.log.PlanarLog` (or any log turned
-into a :class:`SlamProblem`, e.g. a recorded one, :mod:`slam.recorded`).
+every landmark seen so far, run over a :class:`~slam.kinds.planar.log.PlanarLog` (or any log turned
+into a :class:`SlamProblem`, e.g. a recorded one, :mod:`slam.kinds.recorded.run`).
 
 The filter runs on sensor epochs: every ``epoch_steps`` control steps (the sensor's
 scan period) and at every step with observations.  Between epochs it predicts once
 through the compounded motion model with every step's control noise as an input
-(:func:`~slam.planar_models.motion_model`); at an epoch it first updates with all
+(:func:`~slam.kinds.planar.models.motion_model`); at an epoch it first updates with all
 re-observed landmarks in one batch, then augments the state with the new ones
 (inverse observation; Bailey's order).
 
@@ -18,7 +18,7 @@ functions it calls:
 ``local``
     sigma points only over the blocks a step touches, the rest of the joint state carried
     by exact linear relations and rank-k updates of the joint factor
-    (:mod:`slam.local`; EKF and the square-root sigma-point filters).
+    (:mod:`slam.mapping.local`; EKF and the square-root sigma-point filters).
 
 Numerical failure (loss of positive definiteness, a non-finite estimate) or a
 vehicle error beyond ``diverge_m`` ends the run and is reported as a divergence in
@@ -37,11 +37,8 @@ import numpy as np
 from estimators import Gaussian, make_filter, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief, Innovation, Measurement, Transition
-
-from .association import gated_choice
-from .local import Layout, check_local, local_augment, local_predict, local_update
-from .log import PlanarLog
-from .planar_models import (
+from slam.kinds.planar.log import PlanarLog
+from slam.kinds.planar.models import (
     augmentation_model,
     motion_model,
     observation_model,
@@ -49,6 +46,8 @@ from .planar_models import (
     range_bearing_jacobian,
     state_space,
 )
+from slam.mapping.association import gated_choice
+from slam.mapping.local import Layout, check_local, local_augment, local_predict, local_update
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
 MODES: tuple[str, ...] = ("joint", "local")
@@ -92,7 +91,7 @@ class SlamResult:
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
                        gates: tuple[float, float]) -> int | None:
     """Gated association of one observation ``z`` = [r, b] (see
-    :func:`slam.association.gated_choice`), linearised at the mean."""
+    :func:`slam.mapping.association.gated_choice`), linearised at the mean."""
     x = belief.mean
     slots = np.arange(n_lm)
     zhat = range_bearing(x[None, :], slots)[0].reshape(n_lm, 2)
@@ -171,7 +170,7 @@ class _JointSteps:
 
 
 class _LocalSteps:
-    """``local`` mode: block-local steps (:mod:`slam.local`)."""
+    """``local`` mode: block-local steps (:mod:`slam.mapping.local`)."""
 
     def __init__(self, filt, problem: SlamProblem):
         check_local(filt)
@@ -229,7 +228,7 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
     noise_scale : multiplies the noise covariances the filter assumes (a plumbing
         check runs noise-free logs with tiny assumed noise).
     mode : ``"joint"`` (sigma points over the whole state) or ``"local"`` (over the
-        blocks a step touches, :mod:`slam.local`).
+        blocks a step touches, :mod:`slam.mapping.local`).
     """
     problem = planar_problem(log, epoch_steps=epoch_steps, noise_scale=noise_scale)
     return run_problem(problem, filter_name, mode=mode, association=association, gates=gates,

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from estimators import wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
 from worlds.schema import (
     Boolean,
@@ -315,7 +316,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     if heading is None:  # towards the first waypoint
         wx, wy = points["waypoints"][0]
         heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
-    heading = (heading + math.pi) % (2.0 * math.pi) - math.pi
+    heading = wrap_angle(float(heading))
 
     if fil["mode"] == "local":
         no_local = [n for n in fil["names"] if n not in LOCAL_FILTERS]

@@ -4,11 +4,11 @@ One Monte Carlo run (:func:`run_once`):
 
 1. **Truth** (deterministic per world, cached per process): the terrain mesh
    (:func:`build_terrain`), the landmarks placed on it, and the flight
-   (:func:`nav.imu_sim.fly`): Bailey-style steering through the waypoints at a constant
+   (:func:`slam.kinds.drone.flight.fly`): Bailey-style steering through the waypoints at a constant
    height above the ground, multirotor attitude, error-free IMU readings whose
    mechanisation *is* the truth.
 2. **Log** (:func:`simulate_drone`, from the run's seed): IMU biases, bias random walks
-   and white noise (:func:`nav.imu_sim.corrupt_imu`); landmark observations
+   and white noise (:func:`nav.imu_errors.corrupt_imu`); landmark observations
    ``[range, azimuth, elevation]`` in the body frame at every sensor epoch, for the
    landmarks within range, inside the field of view and - with ``line_of_sight`` - not
    hidden by the terrain (segment-mesh intersection); the filters' initial state drawn
@@ -16,9 +16,9 @@ One Monte Carlo run (:func:`run_once`):
 3. **Estimators** on the same log: every filter in joint mode
    (:func:`run_drone_filter`: one prediction per sensor epoch through its IMU samples,
    batch update with the re-observed landmarks, then augmentation with the new ones;
-   :mod:`slam.drone_models`), the IMU-only baseline (:func:`imu_only`: pure
+   :mod:`slam.kinds.drone.models`), the IMU-only baseline (:func:`imu_only`: pure
    mechanisation from the initial state with zero bias estimates, covariance by the
-   EKF's prediction) and the GTSAM smoother (:mod:`slam.drone_reference`).
+   EKF's prediction) and the GTSAM smoother (:mod:`slam.kinds.drone.reference`).
 4. **Scores** (:class:`DroneScores`) at the sensor epochs: position error (ENU, m) and
    its own σ; roll/pitch/yaw error (aerospace Z-Y-X Euler angles of ``q_nb`` with body
    forward-left-up: roll about x, pitch about y, positive nose-down; yaw from east,
@@ -45,13 +45,12 @@ from estimators import make_filter, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief
 from nav.euler import euler_error_jacobian, q_to_euler_zyx
-from nav.imu_sim import FlightPlan, ImuErrors, Trajectory, corrupt_imu, fly
+from nav.imu_errors import ImuErrors, corrupt_imu
 from nav.quaternion import qconj, qexp, qmul, qrotate
 from nav.strapdown import dcm_unit, earth_rate_enu, gravity_enu, mechanise
 from nav.terrain import Terrain
-
-from .association import gated_choice
-from .drone_models import (
+from slam.kinds.drone.flight import FlightPlan, Trajectory, fly
+from slam.kinds.drone.models import (
     POSE_ROWS,
     QUAT,
     VEH_AMBIENT,
@@ -68,8 +67,9 @@ from .drone_models import (
     rae_of,
     state_space,
 )
-from .results import REFERENCE, RunOutcome
-from .scoring import anees_band, nees_series, nis_and_timing
+from slam.mapping.association import gated_choice
+from slam.results import REFERENCE, RunOutcome
+from slam.scoring import anees_band, nees_series, nis_and_timing
 
 IMU_ONLY = "imu_only"
 AXES = ("x", "y", "z")
@@ -91,7 +91,7 @@ _FAILURES = (np.linalg.LinAlgError, FloatingPointError, ArithmeticError)
 
 @lru_cache(maxsize=8)
 def build_terrain(spec: Any, bounds: tuple[float, float, float, float]) -> Terrain:
-    """The world's ground mesh (a :class:`worlds.drone.TerrainSpec` and the map bounds).
+    """The world's ground mesh (a :class:`slam.kinds.drone.world.TerrainSpec` and the map bounds).
 
     Flat and hills meshes cover the bounds plus ``margin_m``; a mesh file is read as is.
     """
@@ -117,7 +117,7 @@ def terrain_of(world) -> Terrain:
 
 
 def flight_plan(world) -> FlightPlan:
-    """The :class:`~nav.imu_sim.FlightPlan` of a drone world."""
+    """The :class:`~slam.kinds.drone.flight.FlightPlan` of a drone world."""
     veh = world.vehicle
     return FlightPlan(
         waypoints=tuple((float(x), float(y)) for x, y in world.map.waypoints),
@@ -270,7 +270,7 @@ def simulate_drone(world, rng: np.random.Generator, *, noise_scale: float = 1.0)
     errors, observation noise, initial-state offset); ``0`` gives a noise-free log.  The
     log's ``P0``, ``obs_cov`` and ``imu_noise`` always state the world's nominal values.
 
-    Draw order: IMU errors (:func:`~nav.imu_sim.corrupt_imu`), observation noise, initial
+    Draw order: IMU errors (:func:`~nav.imu_errors.corrupt_imu`), observation noise, initial
     offset.
     """
     traj, lms = truth_of(world)
@@ -337,7 +337,7 @@ class DroneEstimate:
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
                        gates: tuple[float, float]) -> int | None:
     """Gated association of one ``[r, az, el]`` (see
-    :func:`slam.association.gated_choice`), linearised at the mean."""
+    :func:`slam.mapping.association.gated_choice`), linearised at the mean."""
     x = belief.mean
     slots = np.arange(n_lm)
     zhat = rae_of(body_vectors(x[None], slots)[0]).reshape(n_lm, 3)
@@ -582,7 +582,7 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
                              sensor_noise_scale=fs.sensor_noise_scale) for name in filters]
     ests.append(imu_only(log, fs.imu_noise_scale))
     if reference:
-        from .drone_reference import smooth_drone
+        from slam.kinds.drone.reference import smooth_drone
 
         ests.append(smooth_drone(log, imu_noise_scale=fs.imu_noise_scale,
                                  sensor_noise_scale=fs.sensor_noise_scale))

@@ -1,7 +1,7 @@
 r"""The batch-optimal yardstick for drone SINS/SLAM logs: a GTSAM factor-graph smoother.
 
 :func:`smooth_drone` runs over the very measurements the filters see in a
-:class:`~slam.drone_scenario.DroneLog` and returns the MAP estimate at every sensor
+:class:`~slam.kinds.drone.run.DroneLog` and returns the MAP estimate at every sensor
 epoch with marginal covariances.  The graph has, per epoch ``e``, a ``Pose3`` ``X(e)``,
 a velocity ``V(e)`` and an IMU bias ``B(e)`` (``imuBias.ConstantBias``, GTSAM's order
 ``[accelerometer, gyro]``), and a ``Point3`` ``L(j)`` per observed landmark, with
@@ -44,9 +44,8 @@ from gtsam.symbol_shorthand import B, L, V, X
 
 from estimators.linalg import Array
 from nav.quaternion import dcm_to_q
-
-from .drone_scenario import DroneEstimate, DroneLog
-from .results import REFERENCE
+from slam.kinds.drone.run import DroneEstimate, DroneLog
+from slam.results import REFERENCE
 
 #: Standard-deviation floor of the priors (m, m/s, rad, bias units).
 SIGMA_FLOOR = 1e-4

@@ -1,7 +1,7 @@
 r"""The batch-optimal yardstick for planar SLAM logs: a GTSAM factor-graph smoother.
 
 :func:`smooth_planar` runs a factor-graph smoother over the very measurements a filter
-sees in a :class:`~slam.log.PlanarLog` and returns the maximum a-posteriori poses and
+sees in a :class:`~slam.kinds.planar.log.PlanarLog` and returns the maximum a-posteriori poses and
 landmarks, with their marginal covariances.  The graph has
 
 - a pose variable :math:`T_e \in SE(2)` (gtsam key ``X(k)``, ``k`` the *step number*) at
@@ -30,7 +30,8 @@ with :math:`\lVert v\rVert^2_\Sigma = v^\top\Sigma^{-1}v`, :math:`\bar T_0` = ``
 reordered to GTSAM's [bearing, range] (the log stores [range, bearing]).
 
 Odometry factors
-    Between epochs :math:`e` and :math:`e+1` the car model of :class:`~slam.log.PlanarLog`
+    Between epochs :math:`e` and :math:`e+1` the car model of
+    :class:`~slam.kinds.planar.log.PlanarLog`
     is a right multiplication, :math:`T_{k+1} = T_k\,M(u_k)` with
     :math:`M(V, G) = (V\,dt\cos G,\; V\,dt\sin G,\; V\,dt\sin G / WB)`, so the relative
     motion :math:`\Delta_e = M(u_a)\cdots M(u_{b-1})` is the compounding of the noisy
@@ -85,7 +86,7 @@ from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
 from estimators import wrap_angle
-from slam.log import PlanarLog
+from slam.kinds.planar.log import PlanarLog
 
 Array = NDArray[np.float64]
 
@@ -97,7 +98,7 @@ SIGMA_FLOOR = 1e-6
 
 @dataclass(frozen=True)
 class PlanarReference:
-    """The smoother's estimate of a :class:`~slam.log.PlanarLog`.
+    """The smoother's estimate of a :class:`~slam.kinds.planar.log.PlanarLog`.
 
     Attributes
     ----------

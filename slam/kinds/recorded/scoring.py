@@ -1,0 +1,103 @@
+"""Scoring a filter on a recorded log against the smoother, and the run's summary."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from estimators import wrap_angle
+from estimators.linalg import Array
+from slam.kinds.recorded.log import DEFAULT_FILTERS, DEFAULT_MAX_EPOCH_STEPS, OdometryLog
+from slam.kinds.recorded.models import dead_reckoning_poses, run_recorded
+from slam.kinds.recorded.reference import RecordedReference, smooth_recorded
+from slam.mapping.joint import SlamResult
+
+# --------------------------------------------------------------------------- scoring
+
+def score_filter(result: SlamResult, ref: RecordedReference) -> dict[str, Any]:
+    """One filter against the smoother (keys that do not apply are left out)."""
+    out: dict[str, Any] = {"time_s": result.time_s, "diverged": result.diverged,
+                           "landmarks_mapped": int(len(result.landmark_ids))}
+    if result.failure:
+        out["failure"] = result.failure
+    pos = {int(j): i for i, j in enumerate(ref.landmark_ids)}
+    common = [(i, pos[int(j)]) for i, j in enumerate(result.landmark_ids) if int(j) in pos]
+    if common:
+        a, b = np.array(common).T
+        A, B = result.landmarks[a], ref.landmarks[b]
+        d = np.linalg.norm(A - B, axis=1)
+        if np.all(np.isfinite(d)):
+            out["landmark_dist_to_ref_median_m"] = float(np.median(d))
+            out["landmark_dist_to_ref_max_m"] = float(np.max(d))
+            if len(d) >= 2:
+                rot, d_aligned = _rigid_fit(A, B)
+                out["map_rotation_to_ref_deg"] = rot
+                out["landmark_dist_to_ref_aligned_median_m"] = float(np.median(d_aligned))
+                out["landmark_dist_to_ref_aligned_max_m"] = float(np.max(d_aligned))
+    last = result.poses[-1]
+    if np.all(np.isfinite(last)):
+        end = ref.poses[int(result.steps[-1])]
+        out["final_pose_dist_to_ref_m"] = float(np.hypot(*(last[:2] - end[:2])))
+        out["final_heading_diff_to_ref_deg"] = float(np.degrees(abs(wrap_angle(last[2]
+                                                                               - end[2]))))
+    ok = np.all(np.isfinite(result.poses), axis=1)
+    if ok.any():
+        e = result.poses[ok, :2] - ref.poses[result.steps[ok], :2]
+        out["pose_rmse_to_ref_m"] = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+    if result.time_s > 0:
+        out["isam2_time_over_filter_time"] = ref.time_isam2_s / result.time_s
+    return out
+
+
+def _rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
+    """Best rotation + translation of points ``A`` onto ``B`` (least squares): the
+    rotation (deg) and the distances left after it.  Separates a map that is rotated as
+    a whole (a filter's heading error) from one that is distorted."""
+    ca, cb = A.mean(axis=0), B.mean(axis=0)
+    H = (A - ca).T @ (B - cb)
+    ang = math.atan2(H[0, 1] - H[1, 0], H[0, 0] + H[1, 1])
+    c, s = math.cos(ang), math.sin(ang)
+    R = np.array([[c, -s], [s, c]])
+    return math.degrees(ang), np.linalg.norm((A - ca) @ R.T + cb - B, axis=1)
+
+
+def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FILTERS, *,
+            mode: str = "local", max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
+            progress=None) -> dict[str, Any]:
+    """Run the filters and the smoother on ``log``; the ``summary.json`` dict."""
+    results = {}
+    for name in filters:
+        results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps)
+        if progress:
+            progress(1)
+    ref = smooth_recorded(log)
+    if progress:
+        progress(1)
+    odo = dead_reckoning_poses(log)
+    return {
+        "log": Path(log.source).name,
+        "source": log.source,
+        "mode": mode,
+        "poses": log.n_poses,
+        "landmarks": int(len(log.landmark_ids)),
+        "observations": int(len(log.obs_id)),
+        "filters": {n: score_filter(r, ref) for n, r in results.items()},
+        "baselines": {"odometry": {
+            "final_pose_dist_to_ref_m": float(np.hypot(*(odo[-1, :2] - ref.poses[-1, :2]))),
+            "pose_rmse_to_ref_m": float(np.sqrt(np.mean(np.sum((odo[:, :2]
+                                                                - ref.poses[:, :2])**2, 1)))),
+        }},
+        "reference": {"gtsam": {
+            "method": "iSAM2 pose by pose, then Levenberg-Marquardt",
+            "objective_isam2": ref.objective_isam2,
+            "objective": ref.objective,
+            "time_isam2_s": ref.time_isam2_s,
+            "time_lm_s": ref.time_lm_s,
+            "time_s": ref.time_s,
+        }},
+    }
+
+
