@@ -1,6 +1,6 @@
 """SRCKF vs SR-CH∞KF when the measurement noise is larger than the filter assumes.
 
-The seed-000 problem (SCENARIOS.md S4), reduced to what the filters see: state
+The [Spin SR-CH∞KF] problem, reduced to what the filters see: state
 ``[α, β]`` (pitch, yaw, rad) propagated by gyro-derived increments
 ``X_k = X_{k-1} + u_{k-1} + w`` (eq. 9), measured by the magnetometer's axial component
 (eq. 6, normalised by the field intensity)

@@ -1,6 +1,6 @@
 """Time one star-sensor cycle (25 gyro propagations + 1 star update) per filter.
 
-Seed 004's Table 2 gives the time of one iteration of its MATLAB filters (SRCKF 0.012 s,
+[Wang SRCKF-SLAM]'s Table 2 gives the time of one iteration of its MATLAB filters (SRCKF 0.012 s,
 SRUKF 0.036 s, SRCDKF 0.028 s).  This runs each filter over a simulated log of the
 ``star-sensor`` world in one process with one BLAS thread, times every cycle, and
 prints one JSON object with the median per cycle and the ratio to the paper::

@@ -1,4 +1,4 @@
-r"""Euler-angle sequences and the seed-004 (paper) attitude convention.
+r"""Euler-angle sequences and the [Wang SRCKF-SLAM] (paper) attitude convention.
 
 Two intrinsic Tait-Bryan sequences are provided, both giving the body-to-navigation
 rotation ``q_nb`` (see :mod:`nav.quaternion` for the quaternion conventions):
@@ -8,7 +8,7 @@ rotation ``q_nb`` (see :mod:`nav.quaternion` for the quaternion conventions):
 
   .. math:: C_{nb} = R_z(\psi)\, R_y(\theta)\, R_x(\phi);
 
-* the seed paper's Z-X-Y: yaw :math:`\gamma` about Z, then roll :math:`\alpha` about
+* the paper's Z-X-Y: yaw :math:`\gamma` about Z, then roll :math:`\alpha` about
   the new X, then pitch :math:`\beta` about the new Y,
 
   .. math:: C_{nb} = R_z(\gamma)\, R_x(\alpha)\, R_y(\beta).
@@ -143,7 +143,7 @@ def q_to_euler_zyx(q: ArrayLike) -> Array:
 
 
 def euler_zxy_to_q(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) -> Array:
-    r"""The seed paper's Z-X-Y Euler angles to ``q_nb``.
+    r"""The paper's Z-X-Y Euler angles to ``q_nb``.
 
     Yaw :math:`\gamma` about Z, then roll :math:`\alpha` about the new X, then pitch
     :math:`\beta` about the new Y:
@@ -168,7 +168,7 @@ def euler_zxy_to_q(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) -> Array:
 
 
 def q_to_euler_zxy(q: ArrayLike) -> Array:
-    r"""``q_nb`` to the seed paper's Z-X-Y Euler angles ``[roll α, pitch β, yaw γ]``.
+    r"""``q_nb`` to the paper's Z-X-Y Euler angles ``[roll α, pitch β, yaw γ]``.
 
     Inverse of :func:`euler_zxy_to_q`: roll :math:`\alpha \in [-\pi/2, \pi/2]` (the
     middle angle), pitch :math:`\beta \in [-\pi, \pi)`, yaw :math:`\gamma \in [-\pi, \pi)`.
@@ -234,7 +234,7 @@ def q_from_paper(q_paper: ArrayLike) -> Array:
 
 
 def q_to_paper(q: ArrayLike) -> Array:
-    r"""``q_nb`` to the seed-004 quaternion :math:`[q_1, q_2, q_3, q_4]`.
+    r"""``q_nb`` to the [Wang SRCKF-SLAM] quaternion :math:`[q_1, q_2, q_3, q_4]`.
 
     Inverse of :func:`q_from_paper`, hence also the identity on components (a copy).
 

@@ -1,4 +1,4 @@
-r"""Quaternion pseudo-observations of vector measurements, seed 002 eq. (7)-(9), (15)-(16).
+r"""Quaternion pseudo-observations of vector measurements, [Ding 2017] eq. (7)-(9), (15)-(16).
 
 Convention check
 ----------------

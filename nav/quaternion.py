@@ -439,7 +439,7 @@ def qpropagate(q: ArrayLike, omega: ArrayLike, dt: ArrayLike) -> Array:
         = q_k \otimes \mathrm{Exp}(\omega\,\Delta t),
         \qquad \Delta\theta = \lVert\omega\rVert\,\Delta t.
 
-    This is the closed form of the matrix-exponential update of seed 004 eq. (10):
+    This is the closed form of the matrix-exponential update of [Wang SRCKF-SLAM] eq. (10):
     since :math:`\Omega^2 = -\lVert\omega\rVert^2 I` (see :func:`omega_matrix`),
 
     .. math::

@@ -1,4 +1,4 @@
-r"""Weighted quaternion mean by the eigenvector (Lagrange-multiplier) method, seed 002 §1.4.
+r"""Weighted quaternion mean by the eigenvector (Lagrange-multiplier) method, [Ding 2017] §1.4.
 
 For unit quaternions :math:`q_i` with weights :math:`w_i` (:math:`\sum_i w_i = 1`) the
 mean minimises the weighted chordal cost

@@ -1,4 +1,4 @@
-r"""Star-sensor attitude scenario (seed 004 §5.1-5.2): filters, GTSAM smoother, scores.
+r"""Star-sensor attitude scenario ([Wang SRCKF-SLAM] §5.1-5.2): filters, GTSAM smoother, scores.
 
 State and models
 ----------------
@@ -61,13 +61,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import Euclidean, Measurement, Noise, Product, Transition, make_filter, wrap_angle
-from estimators.linalg import NotPositiveDefiniteError
+from estimators.loop import run_epochs
 from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
 from nav.quaternion import dcm_to_q, qconj, qexp, qmul, qnormalize, qrotate, skew
 from nav.spaces import UnitQuaternion
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
 from slam.results import REFERENCE, RunOutcome
-from slam.scoring import anees_band
+from slam.scoring import anees_stats, nees_series, per_epoch_anees
 
 Array = NDArray[np.float64]
 
@@ -88,7 +88,6 @@ FILTER_DESCRIPTIONS = {
     "srcdkf": "square-root central-difference Kalman filter",
     "svdckf": "cubature Kalman filter with an SVD-factored covariance",
 }
-_FAILURES = (NotPositiveDefiniteError, np.linalg.LinAlgError, ArithmeticError)
 
 
 # --------------------------------------------------------------------------- models
@@ -226,38 +225,28 @@ class EstimateSeries:
 
 def run_filter(log: AttitudeLog, name: str, x0: Array, P0: Array, transition: Transition,
                measurement: Measurement) -> EstimateSeries:
-    """Run filter ``name`` over the log: update at t = 0, then predict + update per interval.
-
-    A numerical failure (loss of positive definiteness, a mean that does not converge,
-    non-finite numbers) ends the run as ``diverged``; later epochs stay NaN.
-    """
+    """Run filter ``name`` over the log: update at t = 0, then predict + update per interval
+    (the one filter loop, :func:`estimators.loop.run_epochs`; a numerical failure ends the
+    run as ``diverged`` and later epochs stay NaN)."""
     M = log.n_star
     flt = make_filter(name)
     means = np.full((M, 7), np.nan)
     covs = np.full((M, 6, 6), np.nan)
     nis = np.full(M, np.nan)
-    failure = None
-    elapsed = 0.0
-    try:
-        # non-finite numbers are caught by the check below (with the epoch), not as warnings
-        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-            belief = flt.init(x0, STATE, cov=P0)
-            belief, inn = flt.update(belief, measurement, star_observation(log, 0))
-            means[0], covs[0], nis[0] = belief.mean, belief.cov, inn.nis
-            if not np.all(np.isfinite(belief.mean)):
-                raise ArithmeticError("non-finite estimate at star epoch 0")
-            t0 = time.perf_counter()
-            for j in range(1, M):
-                belief = flt.predict(belief, transition, log.gyro_block(j - 1))
-                belief, inn = flt.update(belief, measurement, star_observation(log, j))
-                means[j], covs[j], nis[j] = belief.mean, belief.cov, inn.nis
-                if not (np.all(np.isfinite(belief.mean)) and np.isfinite(inn.nis)):
-                    raise ArithmeticError(f"non-finite estimate at star epoch {j}")
-            elapsed = time.perf_counter() - t0
-    except _FAILURES as exc:
-        failure = f"{type(exc).__name__}: {exc}"
-    return EstimateSeries(name, means, covs, nis, measurement.noise.dim, elapsed, M - 1,
-                          failure is not None, failure)
+
+    def record(j: int, b) -> None:
+        means[j], covs[j] = b.mean, b.cov
+
+    def correct(j: int, b):
+        b, inn = flt.update(b, measurement, star_observation(log, j))
+        return b, [inn]
+
+    out = run_epochs(flt, flt.init(x0, STATE, cov=P0), M, correct_first=True, record=record,
+                     transition=lambda j, b: (transition, log.gyro_block(j - 1)),
+                     correct=correct)
+    nis[out.nis_epoch] = out.nis
+    return EstimateSeries(name, means, covs, nis, measurement.noise.dim, out.time_s, M - 1,
+                          out.diverged, out.failure)
 
 
 # --------------------------------------------------------------------------- smoothing
@@ -390,20 +379,6 @@ class AttitudeTrack:
     cov: Array
 
 
-def nees_6(err: Array, covs: Array) -> Array:
-    """NEES per epoch, NaN where the covariance is absent or not positive definite."""
-    out = np.full(err.shape[0], np.nan)
-    ok = np.all(np.isfinite(covs), axis=(1, 2)) & np.all(np.isfinite(err), axis=1)
-    for j in np.flatnonzero(ok):
-        try:
-            L = np.linalg.cholesky(covs[j])
-        except np.linalg.LinAlgError:
-            continue
-        w = np.linalg.solve(L, err[j])
-        out[j] = w @ w
-    return out
-
-
 def score_series(est: EstimateSeries, log: AttitudeLog, divergence_rad: float
                  ) -> AttitudeScores:
     """Reduce an estimator's series to :class:`AttitudeScores` against the log's truth."""
@@ -424,7 +399,7 @@ def score_series(est: EstimateSeries, log: AttitudeLog, divergence_rad: float
     err_bias = b_true - bh
     with np.errstate(invalid="ignore"):
         diag = np.sqrt(np.diagonal(P, axis1=1, axis2=2))
-    nees = nees_6(np.hstack([err_body, err_bias]), P)
+    nees = nees_series(np.hstack([err_body, err_bias]), P)
     diverged, failure = est.diverged, est.failure
     final = np.linalg.norm(err_body[-1])
     if not diverged and not final <= divergence_rad:
@@ -510,16 +485,13 @@ def summarize_scores(scores: list[AttitudeScores], times: Array, steady_from: fl
     out["bias_rmse_steady_deg_h"] = float(np.sqrt(np.nanmean(eb[:, steady] ** 2)) / DEG_H)
     out["bias_final_rmse_deg_h"] = float(np.sqrt(np.nanmean(eb[:, -1] ** 2)) / DEG_H)
     nees = np.stack([s.nees for s in good])  # (R, M)
-    if np.isfinite(nees).any():
-        with np.errstate(invalid="ignore"):
-            per_step = np.nanmean(nees, axis=0) / 6.0
-        lo, hi = anees_band(len(good), dof=6)
-        valid = np.isfinite(per_step)
-        out["anees"] = float(np.mean(per_step[valid]))
-        out["anees_steady"] = float(np.mean(per_step[valid & steady]))
-        out["anees_bounds_95"] = [lo, hi]
-        out["anees_steps_inside_95"] = float(np.mean((per_step[valid] >= lo)
-                                                     & (per_step[valid] <= hi)))
+    stats = anees_stats(nees, 6)
+    if stats:
+        per_step = per_epoch_anees(nees, 6)
+        out["anees"] = stats["value"]
+        out["anees_steady"] = float(np.mean(per_step[np.isfinite(per_step) & steady]))
+        out["anees_bounds_95"] = stats["band"]
+        out["anees_steps_inside_95"] = stats["inside"]
     nis = np.stack([s.nis for s in good])[:, steady]
     if np.isfinite(nis).any():
         out["nis_mean_steady"] = float(np.nanmean(nis) / good[0].nis_dof)

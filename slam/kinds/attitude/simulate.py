@@ -1,4 +1,5 @@
-r"""Simulated satellite attitude: truth, a strapdown gyro and a star sensor (seed 004 §5.1).
+r"""Simulated satellite attitude: truth, a strapdown gyro and a star sensor
+([Wang SRCKF-SLAM] §5.1).
 
 Motion (navigation frame ``n`` inertial, equal to the orbit frame ``o`` at t = 0)
 ---------------------------------------------------------------------------------
@@ -65,7 +66,7 @@ __all__ = ["AttitudeLog", "AttitudeSimConfig", "simulate_attitude", "truth_attit
 class AttitudeSimConfig:
     """What the simulation needs, in SI units (radians, seconds).
 
-    initial_euler_rad : ``[roll, pitch, yaw]``, seed 004's Z-X-Y sequence.
+    initial_euler_rad : ``[roll, pitch, yaw]``, [Wang SRCKF-SLAM]'s Z-X-Y sequence.
     body_rate_rad_s : body rate relative to the orbit frame (constant).
     gyro_bias_rad_s : b(0), per axis.
     """

@@ -1,5 +1,5 @@
 r"""Quaternion SINS/SLAM models: strapdown prediction, range/azimuth/elevation updates,
-inverse-observation augmentation (seed 004 §4, SCENARIOS.md S2).
+inverse-observation augmentation ([Wang SRCKF-SLAM] §4).
 
 State and space
 ---------------

@@ -1,4 +1,4 @@
-r"""Drone SINS/SLAM scenario (SCENARIOS.md S2): simulate, filter, smooth, score, summarise.
+r"""Drone SINS/SLAM scenario: simulate, filter, smooth, score, summarise.
 
 One Monte Carlo run (:func:`run_once`):
 
@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from estimators import make_filter, wrap_angle
+from estimators import wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief
 from nav.euler import euler_error_jacobian, q_to_euler_zyx
@@ -68,10 +68,13 @@ from slam.kinds.drone.models import (
     state_space,
 )
 from slam.mapping.association import gated_choice
+from slam.mapping.local import Layout
+from slam.mapping.problem import SlamProblem, run_problem
 from slam.results import REFERENCE, RunOutcome
-from slam.scoring import anees_band, nees_series, nis_and_timing
+from slam.scoring import anees_stats, nees_series, nis_and_timing
 
 IMU_ONLY = "imu_only"
+DRONE_LAYOUT = Layout(VEH_AMBIENT, 3, state_space)
 AXES = ("x", "y", "z")
 ATT_AXES = ("roll", "pitch", "yaw")
 FILTER_DESCRIPTIONS = {
@@ -84,7 +87,6 @@ FILTER_DESCRIPTIONS = {
     "srcdkf": "quaternion SRCDKF-SLAM: square-root central-difference filter",
     "svdckf": "cubature Kalman filter with an SVD-factored covariance",
 }
-_FAILURES = (np.linalg.LinAlgError, FloatingPointError, ArithmeticError)
 
 
 # --------------------------------------------------------------------------- truth
@@ -352,98 +354,53 @@ def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
     return gated_choice(nu, S, gates)
 
 
-def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
-                     gates: tuple[float, float] = (7.8, 30.0), diverge_m: float = 25.0,
-                     imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
-                     noise_scale: float = 1.0, filter_params: dict | None = None
-                     ) -> DroneEstimate:
-    """Run one joint SINS/SLAM filter over ``log`` (module docstring).
+def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
+                  sensor_noise_scale: float = 1.0, noise_scale: float = 1.0) -> SlamProblem:
+    """The drone log as a :class:`~slam.mapping.problem.SlamProblem`: epochs are the sensor
+    epochs (``steps = 0..E-1``), one prediction per epoch through its IMU samples.
 
     ``imu_noise_scale`` / ``sensor_noise_scale`` multiply the IMU / sensor variances the
     filter assumes (world tuning); ``noise_scale`` multiplies every assumed variance,
     ``P0`` included (a plumbing check runs a noise-free log with a tiny one).
     """
-    filt = make_filter(filter_name, **(filter_params or {}))
     noise = log.imu_noise.scaled(imu_noise_scale * noise_scale)
     obs_cov = log.obs_cov * (sensor_noise_scale * noise_scale)
-    P0 = log.P0 * noise_scale
-    b: Belief = filt.init(log.x0, state_space(0), sqrt=np.diag(np.sqrt(np.diag(P0))))
-    E = log.n_epochs
-    p, v = np.full((E, 3), np.nan), np.full((E, 3), np.nan)
-    q, bias = np.full((E, 4), np.nan), np.full((E, 6), np.nan)
-    pose_cov = np.full((E, 6, 6), np.nan)
+    imu = np.asarray(log.steps)
 
-    def record(e: int) -> None:
-        m = b.mean
-        p[e], v[e], q[e], bias[e] = m[0:3], m[3:6], m[6:10], m[10:16]
-        pose_cov[e] = b.cov_block(POSE_ROWS)
+    def motion(e0: int, e1: int, b: Belief):
+        k0, k1 = int(imu[e0]), int(imu[e1])
+        u = (log.gyro[k0:k1], log.accel[k0:k1])
+        n_lm = (b.mean.size - VEH_AMBIENT) // 3
+        return imu_transition(b.mean, n_lm, u[0], u[1], log.nav, noise), u
 
-    record(0)
-    obs_at = log.observations_at()
-    slot_ids: list[int] = []
-    slot_of: dict[int, int] = {}
-    nis, dof = [], []
-    failure, done = None, 0
-    t0 = time.perf_counter()
-    try:
-        with np.errstate(divide="raise", over="raise", invalid="raise"):
-            for e in range(1, E):
-                k0, k1 = int(log.steps[e - 1]), int(log.steps[e])
-                u = (log.gyro[k0:k1], log.accel[k0:k1])
-                model = imu_transition(b.mean, len(slot_ids), u[0], u[1], log.nav, noise)
-                b = filt.predict(b, model, u)
-                sl = obs_at.get(e)
-                if sl is not None:
-                    b = _observe(filt, b, log.obs[sl], log.obs_id[sl], obs_cov, association,
-                                 gates, slot_ids, slot_of, nis, dof)
-                if not np.all(np.isfinite(b.mean)):
-                    raise FloatingPointError("non-finite state estimate")
-                record(e)
-                done = e
-                err = float(np.linalg.norm(b.mean[0:3] - log.truth[e, 0:3]))
-                if err > diverge_m:
-                    raise FloatingPointError(f"position error {err:.1f} m above {diverge_m:g} m"
-                                             f" at t = {log.times[e]:.1f} s")
-    except _FAILURES as exc:
-        failure = f"{type(exc).__name__}: {exc}"
-    elapsed = time.perf_counter() - t0
-    n_lm = len(slot_ids)
-    lm = b.mean[VEH_AMBIENT:VEH_AMBIENT + 3 * n_lm].reshape(n_lm, 3)
-    lm_cov = np.array([b.cov_block(landmark_rows(s)) for s in range(n_lm)]).reshape(n_lm, 3, 3)
-    return DroneEstimate(filter_name, p, v, q, bias, pose_cov, np.array(slot_ids, dtype=int),
-                         lm, lm_cov, np.array(nis), np.array(dof, dtype=int), elapsed,
-                         max(done, 1), failure is not None, failure)
+    def nearest(b: Belief, z: Array, n_lm: int, gates: tuple[float, float]) -> int | None:
+        return _nearest_neighbour(b, z, obs_cov, n_lm, gates)
+
+    return SlamProblem(
+        x0=np.asarray(log.x0, dtype=float), P0=log.P0 * noise_scale,
+        steps=np.arange(log.n_epochs), motion=motion, observations=log.observations_at(),
+        obs=log.obs, obs_id=log.obs_id,
+        observe=lambda slots, index: observation_model(slots, obs_cov),
+        augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
+        layout=DRONE_LAYOUT, vehicle_dim=VEH_DIM, truth=log.truth, position_dims=3,
+        nearest=nearest, record_rows=POSE_ROWS)
 
 
-def _observe(filt, b: Belief, Z: Array, ids: Array, obs_cov: Array, association: str,
-             gates: tuple[float, float], slot_ids: list[int], slot_of: dict[int, int],
-             nis: list[float], dof: list[int]) -> Belief:
-    """Batch update with the re-observed landmarks, then augment with the new ones."""
-    matched_slots, matched_z, new_z = [], [], []
-    n_before = len(slot_ids)
-    for z, lid in zip(Z, ids):
-        if association == "known":
-            slot = slot_of.get(int(lid), -1)
-        else:
-            slot = _nearest_neighbour(b, z, obs_cov, n_before, gates)
-            if slot is None:
-                continue
-        if slot >= 0:
-            matched_slots.append(slot)
-            matched_z.append(z)
-        else:
-            new_z.append(z)
-            slot_of[int(lid)] = n_before + len(new_z) - 1
-            slot_ids.append(int(lid) if association == "known" else -1)
-    if matched_slots:
-        model = observation_model(np.array(matched_slots), obs_cov)
-        b, inn = filt.update(b, model, np.concatenate(matched_z))
-        nis.append(inn.nis)
-        dof.append(3 * len(matched_slots))
-    if new_z:
-        z_new = np.concatenate(new_z)
-        b = filt.predict(b, augmentation_model(n_before, z_new, obs_cov), z_new)
-    return b
+def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
+                     gates: tuple[float, float] = (7.8, 30.0), diverge_m: float = 25.0,
+                     imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
+                     noise_scale: float = 1.0, filter_params: dict | None = None,
+                     mode: str = "joint") -> DroneEstimate:
+    """Run one SINS/SLAM filter over ``log`` (module docstring) through the one SLAM loop
+    (:func:`slam.mapping.problem.run_problem`); noise scales as :func:`drone_problem`."""
+    problem = drone_problem(log, imu_noise_scale=imu_noise_scale,
+                            sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale)
+    r = run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
+                    diverge_m=diverge_m, filter_params=filter_params)
+    x = r.poses
+    return DroneEstimate(filter_name, x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:16], r.pose_cov,
+                         r.landmark_ids, r.landmarks, r.landmark_cov, r.nis, r.nis_dof,
+                         r.time_s, max(r.epochs_done, 1), r.diverged, r.failure)
 
 
 def imu_only(log: DroneLog, imu_noise_scale: float = 1.0, chunk: int = 100) -> DroneEstimate:
@@ -596,23 +553,6 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
 
 # --------------------------------------------------------------------------- summary
 
-def _anees(nees: Array, dof: int) -> dict[str, Any]:
-    """ANEES of per-run NEES series ``nees`` (R, E) with its two-sided 95 % band."""
-    finite = np.isfinite(nees)
-    count = finite.sum(axis=0)
-    per_step = np.where(count > 0, np.where(finite, nees, 0.0).sum(axis=0)
-                        / np.maximum(count, 1), np.nan) / dof
-    valid = per_step[np.isfinite(per_step)]
-    if not valid.size:
-        return {}
-    lo, hi = anees_band(nees.shape[0], dof)
-    value = float(valid.mean())
-    distance = 0.0 if lo <= value <= hi else float(min(abs(value - lo), abs(value - hi)))
-    return {"value": value, "band": [lo, hi], "inside": float(np.mean((valid >= lo)
-                                                                      & (valid <= hi))),
-            "distance": distance}
-
-
 def _loop_masks(times: Array, loop_end_times: Sequence[float]) -> list[Array]:
     out, start = [], -np.inf
     for end in loop_end_times:
@@ -655,14 +595,14 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
     if lm.size:
         out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))
         out["landmarks_mapped_mean"] = float(np.mean([len(s.lm_err) for s in good]))
-    pos = _anees(np.stack([s.nees_pos for s in good]), 3)
+    pos = anees_stats(np.stack([s.nees_pos for s in good]), 3)
     if pos:
         out["anees"] = pos["value"]
         out["anees_dof"] = 3
         out["anees_bounds_95"] = pos["band"]
         out["anees_steps_inside_95"] = pos["inside"]
         out["anees_distance_to_band"] = pos["distance"]
-    pose = _anees(np.stack([s.nees_pose for s in good]), 6)
+    pose = anees_stats(np.stack([s.nees_pose for s in good]), 6)
     if pose:
         out["anees_pose6"] = pose["value"]
         out["anees_pose6_bounds_95"] = pose["band"]

@@ -14,10 +14,10 @@ from dataclasses import replace
 import numpy as np
 
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
+from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.simulate import simulate_planar
-from slam.mapping.joint import dead_reckoning, epochs_of, run_slam
+from slam.kinds.planar.slam import dead_reckoning, epochs_of, run_slam
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
-from slam.scoring import reduce_run, summarize
 
 
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],

@@ -1,17 +1,19 @@
 """Filter models of a recorded log: Pose2 odometry, a robot-frame point measurement, its
-augmentation, and the log as a :class:`~slam.mapping.joint.SlamProblem`."""
+augmentation, and the log as a :class:`~slam.mapping.problem.SlamProblem`."""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from estimators import Euclidean, Measurement, Noise, Transition, wrap_angle
 from estimators.linalg import Array
 from slam.kinds.planar.models import state_space
+from slam.kinds.planar.slam import PLANAR_LAYOUT
 from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS, OdometryLog
-from slam.mapping.joint import PLANAR_LAYOUT, SlamProblem, SlamResult, run_problem
+from slam.mapping.problem import SlamProblem, SlamResult, run_problem
 
 # --------------------------------------------------------------------------- filter models
 
@@ -185,11 +187,11 @@ def recorded_epochs(log: OdometryLog, max_steps: int = DEFAULT_MAX_EPOCH_STEPS) 
 
 def recorded_problem(log: OdometryLog, *, max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS
                      ) -> SlamProblem:
-    """The :class:`~slam.mapping.joint.SlamProblem` of a recorded log (known ids, no truth)."""
+    """The :class:`~slam.mapping.problem.SlamProblem` of a recorded log (known ids, no truth)."""
     sq = np.linalg.cholesky(log.odometry_cov) if len(log.odometry_cov) else np.zeros((0, 3, 3))
     models: dict[bytes, Transition] = {}   # logs often repeat one covariance
 
-    def motion(k0: int, k1: int) -> tuple[Transition, Array]:
+    def motion(k0: int, k1: int, b: Any = None) -> tuple[Transition, Array]:
         key = sq[k0:k1].tobytes()
         if key not in models:
             models[key] = odometry_model(sq[k0:k1])

@@ -13,7 +13,7 @@ from estimators.linalg import Array
 from slam.kinds.recorded.log import DEFAULT_FILTERS, DEFAULT_MAX_EPOCH_STEPS, OdometryLog
 from slam.kinds.recorded.models import dead_reckoning_poses, run_recorded
 from slam.kinds.recorded.reference import RecordedReference, smooth_recorded
-from slam.mapping.joint import SlamResult
+from slam.mapping.problem import SlamResult
 
 # --------------------------------------------------------------------------- scoring
 

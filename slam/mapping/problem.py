@@ -1,0 +1,270 @@
+r"""Vehicle-map SLAM: one mean and one (square-root) covariance over the vehicle and
+every landmark seen so far, run over a :class:`~slam.kinds.planar.log.PlanarLog` (or any log turned
+into a :class:`SlamProblem`, e.g. a recorded one, :mod:`slam.kinds.recorded.run`).
+
+The filter runs on sensor epochs: every ``epoch_steps`` control steps (the sensor's
+scan period) and at every step with observations.  Between epochs it predicts once
+through the compounded motion model with every step's control noise as an input
+(:func:`~slam.kinds.planar.models.motion_model`); at an epoch it first updates with all
+re-observed landmarks in one batch, then augments the state with the new ones
+(inverse observation; Bailey's order).
+
+Two modes share this one loop (:func:`run_problem`) and differ only in the three step
+functions it calls:
+
+``joint``
+    sigma points over the whole joint state, as the paper does (the filter's own
+    ``predict``/``update`` on the joint belief);
+``local``
+    sigma points only over the blocks a step touches, the rest of the joint state carried
+    by exact linear relations and rank-k updates of the joint factor
+    (:mod:`slam.mapping.local`; EKF and the square-root sigma-point filters).
+
+Numerical failure (loss of positive definiteness, a non-finite estimate) or a
+vehicle error beyond ``diverge_m`` ends the run and is reported as a divergence in
+the result; it never raises out of :func:`run_slam` / :func:`run_problem`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from estimators import make_filter
+from estimators.linalg import Array
+from estimators.loop import Divergence, run_epochs
+from estimators.models import Belief, Innovation, Measurement, Transition
+from slam.mapping.local import Layout, check_local, local_augment, local_predict, local_update
+
+#: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
+MODES: tuple[str, ...] = ("joint", "local")
+
+#: Layout of the planar state: the pose ``[x, y, φ]``, then 2-D landmarks.
+
+
+@dataclass(frozen=True)
+class SlamResult:
+    """What one filter produced on one log.
+
+    Attributes
+    ----------
+    name : str
+    steps : (E,) the epochs (control-step indices, from 0 to K).
+    poses : (E, nv) vehicle means per epoch (NaN after a divergence).
+    pose_cov : (E, r, r) covariance of the recorded vehicle rows per epoch (all by default).
+    landmark_ids : (L,) ids of the mapped landmarks (``-1`` for a landmark created by
+        nearest-neighbour association, whose true id the filter cannot know).
+    landmarks : (L, 2) final landmark means; landmark_cov : (L, 2, 2).
+    nis : (U,) normalised innovation squared per batch update; nis_dof : (U,).
+    time_s : wall time of the filter loop.
+    diverged : bool; failure : reason or ``None``; epochs_done : the last epoch recorded.
+    """
+
+    name: str
+    steps: Array
+    poses: Array
+    pose_cov: Array
+    landmark_ids: Array
+    landmarks: Array
+    landmark_cov: Array
+    nis: Array
+    nis_dof: Array
+    time_s: float
+    diverged: bool
+    failure: str | None
+    epochs_done: int = 0
+
+
+@dataclass(frozen=True)
+class SlamProblem:
+    """A log as the filter loop sees it: the vehicle first, then the landmarks.
+
+    Attributes
+    ----------
+    x0, P0 : initial vehicle mean and covariance (``P0`` may be zero).
+    steps : (E,) epochs (step indices, increasing, from 0).
+    motion : ``motion(k0, k1, belief) -> (transition, u)`` from epoch step ``k0`` to
+        ``k1``; the transition moves the vehicle coordinates of a state of any width and
+        copies the rest (``belief`` is the current one, for models linearised at it).
+    observations : step -> slice of ``obs`` / ``obs_id`` taken at that step.
+    obs : (M, dz) observations; obs_id : (M,) their landmark ids.
+    observe : ``observe(slots, index) -> Measurement`` of the landmarks in state slots
+        ``slots`` by the observations ``obs[index]``; the measurement is of a state
+        ``[vehicle; landmarks...]`` (joint mode: the whole state; local mode: the block
+        ``[vehicle; landmarks in slots]``, passed with ``slots = 0..k-1``).
+    augment : ``augment(n_landmarks, z_new, index) -> Transition`` into a state with the
+        new landmarks appended (local mode passes ``n_landmarks = 0``).
+    layout : the state's block layout (ambient sizes) and spaces.
+    vehicle_dim : tangent size of the vehicle (default: the ambient ``layout.nv``);
+        landmarks are flat (ambient = tangent = ``layout.nl``).
+    truth : (K + 1, >= position_dims) true positions by step, or ``None`` (no divergence
+        distance); position_dims : how many leading coordinates are the position.
+    nearest : ``nearest(belief, z, n_landmarks, gates) -> slot | -1 | None`` for
+        nearest-neighbour association, or ``None`` (ids only).
+    record_rows : the vehicle's tangent rows whose covariance is recorded per epoch
+        (default: all of them).
+    """
+
+    x0: Array
+    P0: Array
+    steps: Array
+    motion: Callable[[int, int, Belief], tuple[Transition, Any]]
+    observations: dict[int, slice]
+    obs: Array
+    obs_id: Array
+    observe: Callable[[Array, Array], Measurement]
+    augment: Callable[[int, Array, Array], Transition]
+    layout: Layout
+    vehicle_dim: int | None = None
+    truth: Array | None = None
+    position_dims: int = 2
+    nearest: Callable[..., int | None] | None = None
+    record_rows: Array | None = None
+
+    @property
+    def nv_tangent(self) -> int:
+        return self.layout.nv if self.vehicle_dim is None else self.vehicle_dim
+
+    def landmark_rows(self, slot: int) -> Array:
+        """Tangent rows of landmark ``slot``."""
+        nl = self.layout.nl
+        return self.nv_tangent + nl * slot + np.arange(nl)
+
+
+class _JointSteps:
+    """``joint`` mode: the filter's own predict/update on the whole joint belief."""
+
+    def __init__(self, filt, problem: SlamProblem):
+        self.filt, self.problem = filt, problem
+
+    def predict(self, b: Belief, model: Transition, u: Any) -> Belief:
+        return self.filt.predict(b, model, u)
+
+    def update(self, b: Belief, slots: Array, index: Array, z: Array
+               ) -> tuple[Belief, Innovation]:
+        return self.filt.update(b, self.problem.observe(slots, index), z)
+
+    def augment(self, b: Belief, n_before: int, z_new: Array, index: Array) -> Belief:
+        return self.filt.predict(b, self.problem.augment(n_before, z_new, index), z_new)
+
+
+class _LocalSteps:
+    """``local`` mode: block-local steps (:mod:`slam.mapping.local`)."""
+
+    def __init__(self, filt, problem: SlamProblem):
+        check_local(filt)
+        self.filt, self.problem, self.layout = filt, problem, problem.layout
+
+    def predict(self, b: Belief, model: Transition, u: Any) -> Belief:
+        return local_predict(self.filt, b, model, u, self.layout)
+
+    def update(self, b: Belief, slots: Array, index: Array, z: Array
+               ) -> tuple[Belief, Innovation]:
+        model = self.problem.observe(np.arange(len(slots)), index)
+        return local_update(self.filt, b, slots, model, z, self.layout)
+
+    def augment(self, b: Belief, n_before: int, z_new: Array, index: Array) -> Belief:
+        return local_augment(self.filt, b, self.problem.augment(0, z_new, index), z_new,
+                             self.layout)
+
+
+def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
+                association: str = "known", gates: tuple[float, float] = (4.0, 25.0),
+                diverge_m: float = 50.0, filter_params: dict | None = None) -> SlamResult:
+    """Run one filter over a :class:`SlamProblem` through the one filter loop
+    (:func:`estimators.loop.run_epochs`); see :func:`run_slam`."""
+    if mode not in MODES:
+        raise ValueError(f"unknown mode {mode!r}; choose from {', '.join(MODES)}")
+    if association not in ("known", "nn"):
+        raise ValueError(f"unknown association {association!r}; choose known or nn")
+    if association == "nn" and problem.nearest is None:
+        raise ValueError("this log has no nearest-neighbour association; use known ids")
+    filt = make_filter(filter_name, **(filter_params or {}))
+    ops = (_LocalSteps if mode == "local" else _JointSteps)(filt, problem)
+    nv, nvt = problem.layout.nv, problem.nv_tangent
+    steps = problem.steps
+    space0 = problem.layout.space_of(0)
+    P0 = np.asarray(problem.P0, dtype=float)
+    if np.any(P0) and np.any(P0 != np.diag(np.diag(P0))):
+        b: Belief = filt.init(problem.x0, space0, cov=P0)
+    else:  # zero or diagonal: the factor directly
+        b = filt.init(problem.x0, space0, sqrt=np.diag(np.sqrt(np.diag(P0))))
+    E = len(steps)
+    poses = np.full((E, nv), np.nan)
+    rows = np.arange(nvt) if problem.record_rows is None else np.asarray(problem.record_rows)
+    covs = np.full((E, len(rows), len(rows)), np.nan)
+    assoc = _Association(problem, ops, association, gates)
+
+    def record(e: int, b: Belief) -> None:
+        poses[e], covs[e] = b.mean[:nv], b.cov_block(rows)
+
+    def check(e: int, b: Belief) -> None:
+        truth, k1, d = problem.truth, int(steps[e]), problem.position_dims
+        if truth is not None:
+            err = float(np.linalg.norm(b.mean[:d] - truth[k1, :d]))
+            if err > diverge_m:
+                raise Divergence(f"vehicle error above {diverge_m} m at step {k1} ({err:.1f} m)")
+
+    out = run_epochs(filt, b, E, steps=ops, record=record, check=check,
+                     transition=lambda e, b: problem.motion(int(steps[e - 1]), int(steps[e]), b),
+                     correct=lambda e, b: assoc.correct(int(steps[e]), b))
+    b = out.belief
+    n_lm, nl = len(assoc.slot_ids), problem.layout.nl
+    lm = b.mean[nv:nv + nl * n_lm].reshape(n_lm, nl)
+    lm_cov = np.array([b.cov_block(problem.landmark_rows(s)) for s in range(n_lm)]
+                      ).reshape(n_lm, nl, nl)
+    return SlamResult(filter_name, steps, poses, covs, np.array(assoc.slot_ids, dtype=int), lm,
+                      lm_cov, out.nis, out.nis_dof, out.time_s, out.diverged, out.failure,
+                      out.epochs_done)
+
+
+class _Association:
+    """The measurement side of a SLAM epoch: association (known ids or gated nearest
+    neighbour), the batch update with the re-observed landmarks, then augmentation with
+    the new ones (Bailey's order)."""
+
+    def __init__(self, problem: SlamProblem, ops: Any, association: str,
+                 gates: tuple[float, float]):
+        self.problem, self.ops, self.association, self.gates = problem, ops, association, gates
+        self.slot_ids: list[int] = []
+        self.slot_of: dict[int, int] = {}
+
+    def _slot(self, b: Belief, z: Array, lid: int, n_before: int) -> int | None:
+        if self.association == "known":
+            return self.slot_of.get(int(lid), -1)
+        return self.problem.nearest(b, z, n_before, self.gates)
+
+    def correct(self, step: int, b: Belief) -> tuple[Belief, list[Innovation]]:
+        problem = self.problem
+        sl = problem.observations.get(step)
+        if sl is None:
+            return b, []
+        matched_slots, matched_z, matched_i, new_z, new_i = [], [], [], [], []
+        n_before = len(self.slot_ids)
+        Z, ids = problem.obs[sl], problem.obs_id[sl]
+        for i, (z, lid) in enumerate(zip(Z, ids), start=sl.start or 0):
+            slot = self._slot(b, z, lid, n_before)
+            if slot is None:
+                continue
+            if slot >= 0:
+                matched_slots.append(slot)
+                matched_z.append(z)
+                matched_i.append(i)
+            else:
+                new_z.append(z)
+                new_i.append(i)
+                self.slot_of[int(lid)] = n_before + len(new_z) - 1
+                self.slot_ids.append(int(lid) if self.association == "known" else -1)
+        inns = []
+        if matched_slots:
+            b, inn = self.ops.update(b, np.array(matched_slots), np.array(matched_i),
+                                     np.concatenate(matched_z))
+            inns.append(inn)
+        if new_z:
+            b = self.ops.augment(b, n_before, np.concatenate(new_z), np.array(new_i))
+        return b, inns
+
+
