@@ -6,7 +6,7 @@ The state is ``[q_nb, b]`` on ``Product([UnitQuaternion(), Euclidean(3)])`` (amb
 tangent 6): attitude error :math:`q = \hat q \otimes \mathrm{Exp}(\delta\theta)` (body frame,
 right perturbation, as GTSAM's ``Rot3.retract``), bias error :math:`b = \hat b + \delta b`.
 
-* **Time update, one per star interval.**  :func:`interval_transition` builds one
+* **Time update, one per star interval.**  :func:`nav.gyro.interval_transition` builds one
   :class:`~estimators.Transition` whose ``f(X, u)`` carries every sigma point (rows of
   ``X``) through the ``n`` gyro samples ``u`` of the interval at once:
   :math:`q' = q \otimes \prod_k \mathrm{Exp}((\tilde\omega_k - b)\,dt)`, :math:`b' = b`.
@@ -60,10 +60,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Euclidean, Measurement, Noise, Product, Transition, make_filter, wrap_angle
+from estimators import Euclidean, Measurement, Product, Transition, make_filter, wrap_angle
 from estimators.loop import run_epochs
 from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
-from nav.quaternion import dcm_to_q, qconj, qexp, qmul, qnormalize, qrotate, skew
+from nav.gyro import dead_reckoning, interval_transition
+from nav.observations import direction_measurement, quaternion_measurement
+from nav.quaternion import dcm_to_q
 from nav.spaces import UnitQuaternion
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
 from slam.results import REFERENCE, RunOutcome
@@ -111,77 +113,12 @@ def sim_config(world) -> AttitudeSimConfig:
     )
 
 
-def ordered_product(E: Array) -> Array:
-    """``E[..., 0, :] ⊗ E[..., 1, :] ⊗ ... ⊗ E[..., n-1, :]`` by pairwise reduction."""
-    n = E.shape[-2]
-    size = 1 << max(n - 1, 0).bit_length()
-    if size != n:  # pad with identities to a power of two: no odd leftovers to carry
-        pad = np.zeros(E.shape[:-2] + (size - n, 4))
-        pad[..., 0] = 1.0
-        E = np.concatenate([E, pad], axis=-2)
-    while E.shape[-2] > 1:
-        E = qmul(E[..., 0::2, :], E[..., 1::2, :])
-    return E[..., 0, :]
-
-
-def propagate_points(X: Array, gyro: Array, dt: float) -> Array:
-    """Carry states ``X`` (m, 7) through the gyro samples ``gyro`` (n, 3) of one interval.
-
-    ``q' = q ⊗ Π_k Exp((ω̃_k - b) dt)``, ``b' = b``; all points and samples at once.
-    """
-    q, b = X[:, :4], X[:, 4:]
-    m, n = X.shape[0], gyro.shape[0]
-    size = 1 << max(n - 1, 0).bit_length()  # padded with identities to a power of two
-    E = np.zeros((m, size, 4))
-    E[:, n:, 0] = 1.0
-    E[:, :n] = qexp((gyro[None, :, :] - b[:, None, :]) * dt)
-    out = np.empty_like(X)
-    out[:, :4] = qnormalize(qmul(q, ordered_product(E)))
-    out[:, 4:] = b
-    return out
-
-
-def interval_noise(T: float, arw: float, bias_rw: float) -> Array:
-    """Tangent-space process noise of one interval of length ``T`` (module docstring)."""
-    ga, gb = arw**2, bias_rw**2
-    I3 = np.eye(3)
-    Q = np.zeros((6, 6))
-    Q[:3, :3] = (ga * T + gb * T**3 / 3.0) * I3
-    Q[:3, 3:] = Q[3:, :3] = -0.5 * gb * T**2 * I3
-    Q[3:, 3:] = gb * T * I3
-    return Q
-
-
-def interval_transition(n: int, dt: float, arw: float, bias_rw: float) -> Transition:
-    """One star interval of ``n`` gyro samples: ``f(X, gyro_block)``, additive tangent noise."""
-    Q = interval_noise(n * dt, arw, bias_rw)
-    # a zero bias random walk would make Q singular; keep its factor well defined
-    Q = Q + 1e-30 * np.eye(6)
-
-    def f(X: Array, u: Array) -> Array:
-        return propagate_points(X, np.asarray(u, dtype=np.float64), dt)
-
-    return Transition(f, Noise.from_cov(Q), additive=True)
-
-
 def star_measurement(mode: str, sigma: float, refs: Array | None = None) -> Measurement:
-    """The star update: a quaternion (``UnitQuaternion`` space) or stacked unit vectors."""
+    """The star update: a quaternion (``UnitQuaternion`` space) or stacked unit vectors
+    (:mod:`nav.observations`)."""
     if mode == "quaternion":
-        H = np.hstack([np.eye(3), np.zeros((3, 3))])
-        return Measurement(lambda X: X[:, :4], Noise.from_sigmas(np.full(3, sigma)), QUAT,
-                           jacobian=lambda x: H)
-    refs = np.asarray(refs, dtype=np.float64).reshape(-1, 3)
-    k = refs.shape[0]
-
-    def h(X: Array) -> Array:
-        return qrotate(qconj(X[:, None, :4]), refs[None, :, :]).reshape(X.shape[0], 3 * k)
-
-    def jac(x: Array) -> Array:
-        b = qrotate(qconj(x[None, :4]), refs)  # (k, 3)
-        return np.hstack([skew(b).reshape(3 * k, 3), np.zeros((3 * k, 3))])
-
-    return Measurement(h, Noise.from_sigmas(np.full(3 * k, sigma)), Euclidean(3 * k),
-                       jacobian=jac)
+        return quaternion_measurement(sigma)
+    return direction_measurement(refs, sigma)
 
 
 def star_observation(log: AttitudeLog, j: int) -> Array:
@@ -290,7 +227,7 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
         for j in range(M):
             for r, b in zip(refs, log.star_vectors[j]):
                 graph.add(gtsam.AttitudeFactorRot3(X[j], r, vec_noise, gtsam.Unit3(b)))
-        guesses = dead_reckoning(log, x0)
+        guesses = dead_reckoning(x0[:4], (log.gyro_block(j) for j in range(M - 1)), dt)
     zero3 = np.zeros(3)
     for j in range(M):
         values.insert(X[j], rot(guesses[j]))
@@ -324,17 +261,6 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
             covs[j, 3:, 3:] = jm.at(B[j], B[j])
     return EstimateSeries(REFERENCE, means, covs, np.full(M, np.nan), 0, solve_s, M - 1,
                           extra_time_s=time.perf_counter() - t1)
-
-
-def dead_reckoning(log: AttitudeLog, x0: Array) -> Array:
-    """(M, 4) attitude at the star epochs from ``x0`` and the gyro alone (zero bias)."""
-    out = np.empty((log.n_star, 4))
-    q = x0[None, :4]
-    out[0] = q[0]
-    for j in range(1, log.n_star):
-        q = qnormalize(qmul(q, ordered_product(qexp(log.gyro_block(j - 1) * log.dt))[None]))
-        out[j] = q[0]
-    return out
 
 
 # --------------------------------------------------------------------------- scoring
