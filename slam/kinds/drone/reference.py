@@ -1,7 +1,7 @@
 r"""The batch-optimal yardstick for drone SINS/SLAM logs: a GTSAM factor-graph smoother.
 
 :func:`smooth_drone` runs over the very measurements the filters see in a
-:class:`~slam.kinds.drone.run.DroneLog` and returns the MAP estimate at every sensor
+:class:`~slam.kinds.drone.simulate.DroneLog` and returns the MAP estimate at every sensor
 epoch with marginal covariances.  The graph has, per epoch ``e``, a ``Pose3`` ``X(e)``,
 a velocity ``V(e)`` and an IMU bias ``B(e)`` (``imuBias.ConstantBias``, GTSAM's order
 ``[accelerometer, gyro]``), and a ``Point3`` ``L(j)`` per observed landmark, with
@@ -44,7 +44,8 @@ from gtsam.symbol_shorthand import B, L, V, X
 
 from estimators.linalg import Array
 from nav.quaternion import dcm_to_q
-from slam.kinds.drone.run import DroneEstimate, DroneLog
+from slam.kinds.drone.filtering import DroneEstimate
+from slam.kinds.drone.simulate import DroneLog
 from slam.results import REFERENCE
 
 #: Standard-deviation floor of the priors (m, m/s, rad, bias units).
@@ -102,16 +103,9 @@ def bearing_range_noise(z: Array, obs_cov: Array) -> gtsam.noiseModel.Base:
     return gtsam.noiseModel.Gaussian.Covariance(0.5 * (cov + cov.T))
 
 
-def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
-                 sensor_noise_scale: float = 1.0, marginals: bool = True) -> DroneEstimate:
-    """Smooth a drone log with GTSAM (iSAM2 over the epochs, then an LM polish).
-
-    ``time_s`` covers the graph, iSAM2 and LM; ``extra_time_s`` the marginals.
-    """
-    t_start = time.perf_counter()
-    params = preintegration_params(log, imu_noise_scale)
-    obs_cov = log.obs_cov * sensor_noise_scale
-    E = log.n_epochs
+def _prior_factors(log: DroneLog) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
+    """Priors on the first pose, velocity and bias equal to the filters' initial belief
+    (body-frame rotation first in GTSAM's Pose3 tangent), with the values they anchor."""
     x0, P0 = log.x0, log.P0
     R0 = _rot(x0[6:10])
     floor = SIGMA_FLOOR**2 * np.eye(3)
@@ -120,34 +114,52 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     pose_cov[:3, :3] = P0[6:9, 6:9] + floor
     pose_cov[3:, 3:] = Rm.T @ P0[0:3, 0:3] @ Rm + floor
     bias_sig = np.sqrt(np.concatenate([np.diag(P0)[12:15], np.diag(P0)[9:12]]) + SIGMA_FLOOR**2)
-
-    graph = gtsam.NonlinearFactorGraph()
+    pose0 = gtsam.Pose3(R0, np.asarray(x0[0:3], float))
+    vel0 = np.asarray(x0[3:6], float)
     first = gtsam.NonlinearFactorGraph()
-    pose_prev = gtsam.Pose3(R0, np.asarray(x0[0:3], float))
-    vel_prev = np.asarray(x0[3:6], float)
-    bias_prev = _bias(x0)
-    first.add(gtsam.PriorFactorPose3(X(0), pose_prev,
-                                     gtsam.noiseModel.Gaussian.Covariance(pose_cov)))
-    first.add(gtsam.PriorFactorVector(V(0), vel_prev,
+    first.add(gtsam.PriorFactorPose3(X(0), pose0, gtsam.noiseModel.Gaussian.Covariance(pose_cov)))
+    first.add(gtsam.PriorFactorVector(V(0), vel0,
                                       gtsam.noiseModel.Gaussian.Covariance(P0[3:6, 3:6] + floor)))
-    first.add(gtsam.PriorFactorConstantBias(B(0), bias_prev,
+    first.add(gtsam.PriorFactorConstantBias(B(0), _bias(x0),
                                             gtsam.noiseModel.Diagonal.Sigmas(bias_sig)))
     vals = gtsam.Values()
-    vals.insert(X(0), pose_prev)
-    vals.insert(V(0), vel_prev)
-    vals.insert(B(0), bias_prev)
+    vals.insert(X(0), pose0)
+    vals.insert(V(0), vel0)
+    vals.insert(B(0), _bias(x0))
+    return first, vals
 
+
+def _landmark_factors(log: DroneLog, e: int, sl: slice, pose_e, obs_cov: Array, seen: set[int],
+                      new_f, new_v) -> None:
+    """``BearingRangeFactor3D`` per sighting of epoch ``e``; a new landmark starts at its
+    first sighting."""
+    for j, z in zip(log.obs_id[sl], log.obs[sl]):
+        j = int(j)
+        r, a, el = z
+        u = np.array([np.cos(el) * np.cos(a), np.cos(el) * np.sin(a), np.sin(el)])
+        new_f.add(gtsam.BearingRangeFactor3D(X(e), L(j), gtsam.Unit3(u), float(r),
+                                             bearing_range_noise(z, obs_cov)))
+        if j not in seen:
+            seen.add(j)
+            new_v.insert(L(j), pose_e.transformFrom(r * u))
+
+
+def _build_and_solve(log: DroneLog, imu_noise_scale: float, sensor_noise_scale: float
+                     ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
+    """The factor graph fed epoch by epoch to iSAM2 (in batches of ``ISAM_BATCH``), each
+    new state initialised by preintegration from the current estimate; then an LM polish."""
+    params = preintegration_params(log, imu_noise_scale)
+    obs_cov = log.obs_cov * sensor_noise_scale
+    graph, vals = _prior_factors(log)
+    pose_prev, vel_prev, bias_prev = vals.atPose3(X(0)), vals.atVector(V(0)), _bias(log.x0)
     isam_params = gtsam.ISAM2Params()
     isam_params.setFactorization("QR")  # Cholesky reports this graph indeterminate
     isam_params.setRelinearizeThreshold(RELIN_THRESHOLD)
     isam_params.relinearizeSkip = RELIN_SKIP
     isam = gtsam.ISAM2(isam_params)
-    graph.push_back(first)
-    isam.update(first, vals)
-    obs_at = log.observations_at()
-    seen: set[int] = set()
-    new_f = gtsam.NonlinearFactorGraph()
-    new_v = gtsam.Values()
+    isam.update(graph, vals)
+    obs_at, seen, E = log.observations_at(), set(), log.n_epochs
+    new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
     for e in range(1, E):
         k0, k1 = int(log.steps[e - 1]), int(log.steps[e])
         pim = gtsam.PreintegratedCombinedMeasurements(params, bias_prev)
@@ -155,44 +167,59 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
             pim.integrateMeasurement(acc, gyr, log.nav.dt)
         new_f.add(gtsam.CombinedImuFactor(X(e - 1), V(e - 1), X(e), V(e), B(e - 1), B(e), pim))
         pred = pim.predict(gtsam.NavState(pose_prev, vel_prev), bias_prev)
-        pose_e, vel_e = pred.pose(), pred.velocity()
-        new_v.insert(X(e), pose_e)
-        new_v.insert(V(e), vel_e)
+        pose_prev, vel_prev = pred.pose(), pred.velocity()
+        new_v.insert(X(e), pose_prev)
+        new_v.insert(V(e), vel_prev)
         new_v.insert(B(e), bias_prev)
         sl = obs_at.get(e)
         if sl is not None:
-            for j, z in zip(log.obs_id[sl], log.obs[sl]):
-                j = int(j)
-                r, a, el = z
-                u = np.array([np.cos(el) * np.cos(a), np.cos(el) * np.sin(a), np.sin(el)])
-                new_f.add(gtsam.BearingRangeFactor3D(X(e), L(j), gtsam.Unit3(u), float(r),
-                                                     bearing_range_noise(z, obs_cov)))
-                if j not in seen:
-                    seen.add(j)
-                    new_v.insert(L(j), pose_e.transformFrom(r * u))
-        pose_prev, vel_prev = pose_e, vel_e
+            _landmark_factors(log, e, sl, pose_prev, obs_cov, seen, new_f, new_v)
         if e % ISAM_BATCH and e < E - 1:
             continue
         graph.push_back(new_f)
         isam.update(new_f, new_v)
-        new_f = gtsam.NonlinearFactorGraph()
-        new_v = gtsam.Values()
+        new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
         pose_prev = isam.calculateEstimatePose3(X(e))
         vel_prev = isam.calculateEstimateVector(V(e))
         bias_prev = isam.calculateEstimateConstantBias(B(e))
-
-    est = isam.calculateEstimate()
     lm_params = gtsam.LevenbergMarquardtParams()
     lm_params.setRelativeErrorTol(1e-10)
     lm_params.setAbsoluteErrorTol(1e-12)
     lm_params.setMaxIterations(50)
-    values = gtsam.LevenbergMarquardtOptimizer(graph, est, lm_params).optimize()
+    values = gtsam.LevenbergMarquardtOptimizer(graph, isam.calculateEstimate(),
+                                               lm_params).optimize()
+    return graph, values, seen
 
-    p = np.empty((E, 3))
-    v = np.empty((E, 3))
-    q = np.empty((E, 4))
-    bias = np.empty((E, 6))
-    Rs = np.empty((E, 3, 3))
+
+def _marginals(graph, values, Rs: Array, ids: Array) -> tuple[Array, Array]:
+    """World-frame ``[δp, δθ]`` pose covariances (E, 6, 6) and landmark covariances."""
+    E = len(Rs)
+    pcov = np.full((E, 6, 6), np.nan)
+    lcov = np.full((len(ids), 3, 3), np.nan)
+    marg = gtsam.Marginals(graph, values)
+    for e in range(E):
+        S = marg.marginalCovariance(X(e))  # [rot, trans], body frame
+        R = Rs[e]
+        pcov[e, :3, :3] = R @ S[3:, 3:] @ R.T
+        pcov[e, :3, 3:] = R @ S[3:, :3]
+        pcov[e, 3:, :3] = pcov[e, :3, 3:].T
+        pcov[e, 3:, 3:] = S[:3, :3]
+    for i, j in enumerate(ids):
+        lcov[i] = marg.marginalCovariance(L(int(j)))
+    return pcov, lcov
+
+
+def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
+                 sensor_noise_scale: float = 1.0, marginals: bool = True) -> DroneEstimate:
+    """Smooth a drone log with GTSAM (iSAM2 over the epochs, then an LM polish).
+
+    ``time_s`` covers the graph, iSAM2 and LM; ``extra_time_s`` the marginals.
+    """
+    t_start = time.perf_counter()
+    E = log.n_epochs
+    graph, values, seen = _build_and_solve(log, imu_noise_scale, sensor_noise_scale)
+    p, v, q = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 4))
+    bias, Rs = np.empty((E, 6)), np.empty((E, 3, 3))
     for e in range(E):
         pose = values.atPose3(X(e))
         Rs[e] = pose.rotation().matrix()
@@ -204,20 +231,10 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
     t_solved = time.perf_counter()
-
-    pcov = np.full((E, 6, 6), np.nan)
-    lcov = np.full((len(ids), 3, 3), np.nan)
     if marginals:
-        marg = gtsam.Marginals(graph, values)
-        for e in range(E):
-            S = marg.marginalCovariance(X(e))  # [rot, trans], body frame
-            R = Rs[e]
-            pcov[e, :3, :3] = R @ S[3:, 3:] @ R.T
-            pcov[e, :3, 3:] = R @ S[3:, :3]
-            pcov[e, 3:, :3] = pcov[e, :3, 3:].T
-            pcov[e, 3:, 3:] = S[:3, :3]
-        for i, j in enumerate(ids):
-            lcov[i] = marg.marginalCovariance(L(int(j)))
+        pcov, lcov = _marginals(graph, values, Rs, ids)
+    else:
+        pcov, lcov = np.full((E, 6, 6), np.nan), np.full((len(ids), 3, 3), np.nan)
     t_end = time.perf_counter()
     return DroneEstimate(REFERENCE, p, v, q, bias, pcov, ids, lms, lcov, np.zeros(0),
                          np.zeros(0, int), t_solved - t_start, E - 1,

@@ -295,6 +295,54 @@ def _obs_noise(obs_cov: Array) -> gtsam.noiseModel.Base:
     return gtsam.noiseModel.Gaussian.Covariance(cov)
 
 
+def _epoch_factors(log: PlanarLog, k: int, sl: slice | None, pose_est, obs_noise,
+                   seen: set[int], new_f, new_v) -> None:
+    """``BearingRangeFactor2D`` per sighting at step ``k``; a new landmark starts at its
+    first sighting."""
+    if sl is None:
+        return
+    for j, (r, b) in zip(log.obs_id[sl], log.obs[sl], strict=True):
+        j = int(j)
+        new_f.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r),
+                                             obs_noise))
+        if j not in seen:
+            seen.add(j)
+            new_v.insert(L(j), pose_est.transformFrom(np.array([r * np.cos(b), r * np.sin(b)])))
+
+
+def _incremental(log: PlanarLog, steps: Array, rel: Array, rel_cov: Array, prior
+                 ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.ISAM2, set[int]]:
+    """The graph fed epoch by epoch to iSAM2: the prior, one between-factor per epoch
+    (covariance ``rel_cov``), the epoch's sightings; each pose initialised by composing
+    the odometry onto the current estimate of the previous one."""
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(0.1)  # check every update; LM polishes the rest
+    params.relinearizeSkip = 1
+    isam = gtsam.ISAM2(params)
+    graph = gtsam.NonlinearFactorGraph()
+    seen: set[int] = set()
+    pose_est = gtsam.Pose2(*np.asarray(log.x0, dtype=float))
+    by_step = log.observations_at()
+    obs_noise = _obs_noise(log.obs_cov)
+    for e, k in enumerate(steps):
+        k = int(k)
+        new_f = gtsam.NonlinearFactorGraph()
+        new_v = gtsam.Values()
+        if e == 0:
+            new_f.add(prior)
+        else:
+            delta = gtsam.Pose2(*rel[e - 1])
+            noise = gtsam.noiseModel.Gaussian.Covariance(rel_cov[e - 1])
+            new_f.add(gtsam.BetweenFactorPose2(X(int(steps[e - 1])), X(k), delta, noise))
+            pose_est = pose_est.compose(delta)
+        new_v.insert(X(k), pose_est)
+        _epoch_factors(log, k, by_step.get(k), pose_est, obs_noise, seen, new_f, new_v)
+        graph.push_back(new_f)
+        isam.update(new_f, new_v)
+        pose_est = isam.calculateEstimatePose2(X(k))
+    return graph, isam, seen
+
+
 def smooth_planar(
     log: PlanarLog,
     *,
@@ -312,53 +360,13 @@ def smooth_planar(
     rel, rel_cov = relative_motions(log.controls, log.control_cov, log.dt, log.wheelbase, steps)
     floor = np.eye(3) * SIGMA_FLOOR**2
     lateral = np.diag([0.0, lateral_sigma_m**2, 0.0])
-    by_step = log.observations_at()
-    obs_noise = _obs_noise(log.obs_cov)
-
     x0 = np.asarray(log.x0, dtype=float)
     prior_cov = world_to_body_cov(x0[2], np.asarray(log.P0, dtype=float)) + floor
     prior = gtsam.PriorFactorPose2(
         X(0), gtsam.Pose2(*x0), gtsam.noiseModel.Gaussian.Covariance(prior_cov)
     )
 
-    params = gtsam.ISAM2Params()
-    params.setRelinearizeThreshold(0.1)  # check every update; LM polishes the rest
-    params.relinearizeSkip = 1
-    isam = gtsam.ISAM2(params)
-    graph = gtsam.NonlinearFactorGraph()
-    seen: set[int] = set()
-    pose_est = gtsam.Pose2(*x0)
-
-    for e, k in enumerate(steps):
-        k = int(k)
-        new_f = gtsam.NonlinearFactorGraph()
-        new_v = gtsam.Values()
-        if e == 0:
-            new_f.add(prior)
-        else:
-            delta = gtsam.Pose2(*rel[e - 1])
-            noise = gtsam.noiseModel.Gaussian.Covariance(rel_cov[e - 1] + lateral + floor)
-            new_f.add(gtsam.BetweenFactorPose2(X(int(steps[e - 1])), X(k), delta, noise))
-            pose_est = pose_est.compose(delta)
-        new_v.insert(X(k), pose_est)
-        sl = by_step.get(k)
-        if sl is not None:
-            for j, (r, b) in zip(log.obs_id[sl], log.obs[sl], strict=True):
-                j = int(j)
-                new_f.add(
-                    gtsam.BearingRangeFactor2D(
-                        X(k), L(j), gtsam.Rot2(float(b)), float(r), obs_noise
-                    )
-                )
-                if j not in seen:
-                    seen.add(j)
-                    new_v.insert(
-                        L(j), pose_est.transformFrom(np.array([r * np.cos(b), r * np.sin(b)]))
-                    )
-        graph.push_back(new_f)
-        isam.update(new_f, new_v)
-        pose_est = isam.calculateEstimatePose2(X(k))
-
+    graph, isam, seen = _incremental(log, steps, rel, rel_cov + lateral + floor, prior)
     est_isam = isam.calculateEstimate()
     objective_isam2 = float(graph.error(est_isam))
     lm_params = gtsam.LevenbergMarquardtParams()

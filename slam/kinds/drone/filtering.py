@@ -1,0 +1,167 @@
+"""The drone's filters on a log: the log as a SLAM problem through the one SLAM loop,
+and the IMU-only baseline."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimators import wrap_angle
+from estimators.linalg import Array
+from estimators.models import Belief
+from nav.strapdown import dcm_unit, mechanise
+from slam.kinds.drone.models import (
+    POSE_ROWS,
+    VEH_AMBIENT,
+    VEH_DIM,
+    augmentation_model,
+    body_vectors,
+    error_transitions,
+    imu_transition,
+    landmark_rows,
+    observation_model,
+    rae_jacobian,
+    rae_of,
+    state_space,
+)
+from slam.kinds.drone.simulate import DroneLog
+from slam.mapping.association import gated_choice
+from slam.mapping.local import Layout
+from slam.mapping.problem import SlamProblem, run_problem
+
+IMU_ONLY = "imu_only"
+DRONE_LAYOUT = Layout(VEH_AMBIENT, 3, state_space)
+
+
+# --------------------------------------------------------------------------- filtering
+
+@dataclass(frozen=True)
+class DroneEstimate:
+    """One estimator's output at the sensor epochs.
+
+    p, v (E, 3); q (E, 4); bias (E, 6) ``[b_g, b_a]``; pose_cov (E, 6, 6) of
+    ``[δp (world frame), δθ (body frame)]`` (NaN where none); landmark_ids (L,) (``-1``
+    for one created by nearest-neighbour association), landmarks (L, 3), landmark_cov
+    (L, 3, 3); nis, nis_dof per batch update; time_s wall time of ``steps`` epochs;
+    extra_time_s (the smoother's marginals).
+    """
+
+    name: str
+    p: Array
+    v: Array
+    q: Array
+    bias: Array
+    pose_cov: Array
+    landmark_ids: Array
+    landmarks: Array
+    landmark_cov: Array
+    nis: Array
+    nis_dof: Array
+    time_s: float
+    steps: int
+    diverged: bool = False
+    failure: str | None = None
+    extra_time_s: float = 0.0
+
+
+def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
+                       gates: tuple[float, float]) -> int | None:
+    """Gated association of one ``[r, az, el]`` (see
+    :func:`slam.mapping.association.gated_choice`), linearised at the mean."""
+    x = belief.mean
+    slots = np.arange(n_lm)
+    zhat = rae_of(body_vectors(x[None], slots)[0]).reshape(n_lm, 3)
+    H = rae_jacobian(x, slots)
+    nu = z - zhat
+    nu[:, 1] = wrap_angle(nu[:, 1])
+    S = np.empty((n_lm, 3, 3))
+    for s in slots:
+        rows = np.r_[0:3, 6:9, landmark_rows(int(s))]
+        Hs = H[3 * s:3 * s + 3, rows]
+        S[s] = Hs @ belief.cov_block(rows) @ Hs.T + obs_cov
+    return gated_choice(nu, S, gates)
+
+
+def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
+                  sensor_noise_scale: float = 1.0, noise_scale: float = 1.0) -> SlamProblem:
+    """The drone log as a :class:`~slam.mapping.problem.SlamProblem`: epochs are the sensor
+    epochs (``steps = 0..E-1``), one prediction per epoch through its IMU samples.
+
+    ``imu_noise_scale`` / ``sensor_noise_scale`` multiply the IMU / sensor variances the
+    filter assumes (world tuning); ``noise_scale`` multiplies every assumed variance,
+    ``P0`` included (a plumbing check runs a noise-free log with a tiny one).
+    """
+    noise = log.imu_noise.scaled(imu_noise_scale * noise_scale)
+    obs_cov = log.obs_cov * (sensor_noise_scale * noise_scale)
+    imu = np.asarray(log.steps)
+
+    def motion(e0: int, e1: int, b: Belief):
+        k0, k1 = int(imu[e0]), int(imu[e1])
+        u = (log.gyro[k0:k1], log.accel[k0:k1])
+        n_lm = (b.mean.size - VEH_AMBIENT) // 3
+        return imu_transition(b.mean, n_lm, u[0], u[1], log.nav, noise), u
+
+    def nearest(b: Belief, z: Array, n_lm: int, gates: tuple[float, float]) -> int | None:
+        return _nearest_neighbour(b, z, obs_cov, n_lm, gates)
+
+    return SlamProblem(
+        x0=np.asarray(log.x0, dtype=float), P0=log.P0 * noise_scale,
+        steps=np.arange(log.n_epochs), motion=motion, observations=log.observations_at(),
+        obs=log.obs, obs_id=log.obs_id,
+        observe=lambda slots, index: observation_model(slots, obs_cov),
+        augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
+        layout=DRONE_LAYOUT, vehicle_dim=VEH_DIM, truth=log.truth, position_dims=3,
+        nearest=nearest, record_rows=POSE_ROWS)
+
+
+def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
+                     gates: tuple[float, float] = (7.8, 30.0), diverge_m: float = 25.0,
+                     imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
+                     noise_scale: float = 1.0, filter_params: dict | None = None,
+                     mode: str = "joint") -> DroneEstimate:
+    """Run one SINS/SLAM filter over ``log`` (module docstring) through the one SLAM loop
+    (:func:`slam.mapping.problem.run_problem`); noise scales as :func:`drone_problem`."""
+    problem = drone_problem(log, imu_noise_scale=imu_noise_scale,
+                            sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale)
+    r = run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
+                    diverge_m=diverge_m, filter_params=filter_params)
+    x = r.poses
+    return DroneEstimate(filter_name, x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:16], r.pose_cov,
+                         r.landmark_ids, r.landmarks, r.landmark_cov, r.nis, r.nis_dof,
+                         r.time_s, max(r.epochs_done, 1), r.diverged, r.failure)
+
+
+def imu_only(log: DroneLog, imu_noise_scale: float = 1.0, chunk: int = 100) -> DroneEstimate:
+    """The IMU-only baseline: mechanisation from ``x0`` with zero bias estimates and no
+    landmarks; its covariance is the EKF prediction of the 15-d error state, epoch by epoch
+    (the same ``(Φ, Q)`` as the filters' prediction, computed for all epochs at once)."""
+    noise = log.imu_noise.scaled(imu_noise_scale)
+    nav = log.nav
+    t0 = time.perf_counter()
+    x0 = np.asarray(log.x0, dtype=float)
+    E, n = log.n_epochs, log.samples_per_epoch
+    K = int(log.steps[-1])
+    w = log.gyro[:K] - x0[10:13]
+    f = log.accel[:K] - x0[13:16]
+    P, V, Qt = mechanise(x0[None, 0:3], x0[None, 3:6], x0[None, 6:10], w, f, nav.dt,
+                         nav.gravity, nav.earth_rate, all_samples=True)
+    steps = np.asarray(log.steps)
+    C = dcm_unit(Qt[0, :K]).reshape(E - 1, n, 3, 3)
+    w, f = w.reshape(E - 1, n, 3), f.reshape(E - 1, n, 3)
+    pose_cov = np.empty((E, 6, 6))
+    cov = np.asarray(log.P0, dtype=float)
+    pose_cov[0] = cov[np.ix_(POSE_ROWS, POSE_ROWS)]
+    for c0 in range(0, E - 1, chunk):
+        Phi, Qd = error_transitions(C[c0:c0 + chunk], w[c0:c0 + chunk], f[c0:c0 + chunk],
+                                    nav, noise)
+        for i in range(Phi.shape[0]):
+            cov = Phi[i] @ cov @ Phi[i].T + Qd[i]
+            pose_cov[c0 + i + 1] = cov[np.ix_(POSE_ROWS, POSE_ROWS)]
+    p, v, q = P[0, steps], V[0, steps], Qt[0, steps]
+    return DroneEstimate(IMU_ONLY, p, v, q, np.zeros((E, 6)), pose_cov, np.zeros(0, int),
+                         np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int),
+                         time.perf_counter() - t0, E - 1)
+
+

@@ -1,0 +1,166 @@
+"""Scores of a drone run at the sensor epochs: position, velocity and attitude errors,
+position and pose NEES, landmark errors; the Monte Carlo summary of one estimator."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from estimators import wrap_angle
+from estimators.linalg import Array
+from nav.euler import euler_error_jacobian, q_to_euler_zyx
+from slam.kinds.drone.filtering import DroneEstimate
+from slam.kinds.drone.models import (
+    QUAT,
+)
+from slam.kinds.drone.simulate import DroneLog
+from slam.scoring import anees_stats, nees_series, nis_and_timing
+
+AXES = ("x", "y", "z")
+ATT_AXES = ("roll", "pitch", "yaw")
+
+
+# --------------------------------------------------------------------------- scoring
+
+@dataclass(frozen=True)
+class DroneScores:
+    """One estimator on one run, reduced (at the sensor epochs).
+
+    err_pos (E, 3) estimate minus truth (m), sig_pos (E, 3) own σ; err_vel (E, 3);
+    err_att (E, 3) roll/pitch/yaw estimate minus truth (rad, wrapped), sig_att (E, 3);
+    nees_pos (E,) 3-dof, nees_pose (E,) 6-dof (NaN at epoch 0, the prior); lm_ids (L,),
+    lm_err (L,) final 3-D landmark errors (m); nis, nis_dof; time_s of ``steps`` epochs.
+    """
+
+    name: str
+    err_pos: Array
+    sig_pos: Array
+    err_vel: Array
+    err_att: Array
+    sig_att: Array
+    nees_pos: Array
+    nees_pose: Array
+    lm_ids: Array
+    lm_err: Array
+    nis: Array
+    nis_dof: Array
+    time_s: float
+    steps: int
+    diverged: bool = False
+    failure: str | None = None
+    extra_time_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class DroneTrack:
+    """Run 0's full output of one estimator (for plots and trajectory files)."""
+
+    name: str
+    p: Array
+    q: Array
+    pose_cov: Array
+    bias: Array
+    landmark_ids: Array
+    landmarks: Array
+    landmark_cov: Array
+
+
+def score(est: DroneEstimate, log: DroneLog) -> DroneScores:
+    """Reduce an estimate to :class:`DroneScores` against the log's truth."""
+    tp, tv, tq = log.truth[:, 0:3], log.truth[:, 3:6], log.truth[:, 6:10]
+    E = log.n_epochs
+    ok = np.all(np.isfinite(est.q), axis=1)
+    err_pos = est.p - tp
+    err_vel = est.v - tv
+    err_att = np.full((E, 3), np.nan)
+    err_rot = np.full((E, 3), np.nan)
+    sig_att = np.full((E, 3), np.nan)
+    C = est.pose_cov
+    if ok.any():
+        err_att[ok] = wrap_angle(q_to_euler_zyx(est.q[ok]) - q_to_euler_zyx(tq[ok]))
+        err_rot[ok] = QUAT.local(est.q[ok], tq[ok])
+        J = euler_error_jacobian(est.q[ok], q_to_euler_zyx)
+        with np.errstate(invalid="ignore"):
+            Ce = J @ C[ok, 3:, 3:] @ np.swapaxes(J, -1, -2)
+            sig_att[ok] = np.sqrt(np.clip(np.diagonal(Ce, axis1=1, axis2=2), 0.0, None))
+    with np.errstate(invalid="ignore"):
+        sig_pos = np.sqrt(np.clip(np.diagonal(C[:, :3, :3], axis1=1, axis2=2), 0.0, None))
+    nees_pos = nees_series(-err_pos, C[:, :3, :3])
+    nees_pose = nees_series(np.hstack([-err_pos, err_rot]), C)
+    nees_pos[0] = nees_pose[0] = np.nan  # epoch 0 is the prior, not an estimate
+    known = est.landmark_ids >= 0
+    lm_err = np.linalg.norm(est.landmarks[known] - log.landmarks[est.landmark_ids[known]],
+                            axis=1) if known.any() else np.zeros(0)
+    return DroneScores(est.name, err_pos, sig_pos, err_vel, err_att, sig_att, nees_pos,
+                       nees_pose, est.landmark_ids[known], lm_err, est.nis, est.nis_dof,
+                       est.time_s, est.steps, est.diverged, est.failure, est.extra_time_s)
+
+
+def track_of(est: DroneEstimate) -> DroneTrack:
+    return DroneTrack(est.name, est.p, est.q, est.pose_cov, est.bias, est.landmark_ids,
+                      est.landmarks, est.landmark_cov)
+
+
+# --------------------------------------------------------------------------- summary
+
+def _loop_masks(times: Array, loop_end_times: Sequence[float]) -> list[Array]:
+    out, start = [], -np.inf
+    for end in loop_end_times:
+        out.append((times > start) & (times <= end + 1e-9))
+        start = end
+    return out
+
+
+def summarize_scores(scores: list[DroneScores], times: Array | None = None,
+                     loop_end_times: Sequence[float] = ()) -> dict[str, Any]:
+    """Monte Carlo summary of one estimator (a ``summary.json`` entry).
+
+    Diverged runs are counted and left out of every statistic.
+    """
+    good = [s for s in scores if not s.diverged]
+    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
+    if len(good) < len(scores):
+        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    if not good:
+        return out
+    ep = np.stack([s.err_pos for s in good])  # (R, E, 3)
+    out["pos_rmse_m"] = float(np.sqrt(np.nanmean(np.sum(ep**2, axis=2))))
+    out["pos_rmse_xy_m"] = float(np.sqrt(np.nanmean(np.sum(ep[..., :2] ** 2, axis=2))))
+    out["pos_err_range_m"] = {a: [float(np.nanmin(ep[..., i])), float(np.nanmax(ep[..., i]))]
+                              for i, a in enumerate(AXES)}
+    out["pos_rmse_axis_m"] = {a: float(np.sqrt(np.nanmean(ep[..., i] ** 2)))
+                              for i, a in enumerate(AXES)}
+    ev = np.stack([s.err_vel for s in good])
+    out["vel_rmse_mps"] = float(np.sqrt(np.nanmean(np.sum(ev**2, axis=2))))
+    ea = np.stack([s.err_att for s in good])
+    out["att_rmse_deg"] = {a: float(np.degrees(np.sqrt(np.nanmean(ea[..., i] ** 2))))
+                           for i, a in enumerate(ATT_AXES)}
+    out["heading_rmse_deg"] = out["att_rmse_deg"]["yaw"]
+    if times is not None and len(loop_end_times) > 1:
+        norm = np.linalg.norm(ep, axis=2)
+        loops = _loop_masks(np.asarray(times), loop_end_times)
+        out["loop_pos_rmse_m"] = [float(np.sqrt(np.nanmean(norm[:, m] ** 2))) for m in loops]
+        out["loop_pos_max_err_m"] = [float(np.nanmax(norm[:, m])) for m in loops]
+    lm = np.concatenate([s.lm_err for s in good])
+    if lm.size:
+        out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))
+        out["landmarks_mapped_mean"] = float(np.mean([len(s.lm_err) for s in good]))
+    pos = anees_stats(np.stack([s.nees_pos for s in good]), 3)
+    if pos:
+        out["anees"] = pos["value"]
+        out["anees_dof"] = 3
+        out["anees_bounds_95"] = pos["band"]
+        out["anees_steps_inside_95"] = pos["inside"]
+        out["anees_distance_to_band"] = pos["distance"]
+    pose = anees_stats(np.stack([s.nees_pose for s in good]), 6)
+    if pose:
+        out["anees_pose6"] = pose["value"]
+        out["anees_pose6_bounds_95"] = pose["band"]
+        out["anees_pose6_steps_inside_95"] = pose["inside"]
+    out.update(nis_and_timing(good))
+    return out
+
+

@@ -1,0 +1,105 @@
+"""The drone world's truth: terrain mesh, flight plan, navigation frame and the flown
+trajectory with the landmarks on the ground (deterministic per world; cached)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from estimators.linalg import Array
+from nav.strapdown import earth_rate_enu, gravity_enu
+from nav.terrain import Terrain
+from slam.kinds.drone.flight import FlightPlan, Trajectory, fly
+from slam.kinds.drone.models import (
+    NavFrame,
+)
+
+# --------------------------------------------------------------------------- truth
+
+@lru_cache(maxsize=8)
+def build_terrain(spec: Any, bounds: tuple[float, float, float, float]) -> Terrain:
+    """The world's ground mesh (a :class:`slam.kinds.drone.world.TerrainSpec` and the map bounds).
+
+    Flat and hills meshes cover the bounds plus ``margin_m``; a mesh file is read as is.
+    """
+    m = spec.margin_m
+    ext = (bounds[0] - m, bounds[1] + m, bounds[2] - m, bounds[3] + m)
+    if spec.kind == "flat":
+        return Terrain.flat(ext, spec.base_height_m)
+    if spec.kind == "hills":
+        return Terrain.hills(ext, spec.hill_centres, spec.hill_amplitude_m, spec.hill_width_m,
+                             spec.base_height_m, spec.grid_spacing_m)
+    return Terrain.from_file(spec.mesh_path)
+
+
+def terrain_of(world) -> Terrain:
+    """The terrain of ``world``; a mesh that does not cover the map raises ``WorldError``."""
+    from worlds.schema import WorldError
+
+    try:
+        return build_terrain(world.terrain, tuple(world.map.bounds_m))
+    except ValueError as exc:
+        raise WorldError(world.source or world.name, "terrain.mesh_file", str(exc),
+                         world.terrain.mesh_file) from None
+
+
+def flight_plan(world) -> FlightPlan:
+    """The :class:`~slam.kinds.drone.flight.FlightPlan` of a drone world."""
+    veh = world.vehicle
+    return FlightPlan(
+        waypoints=tuple((float(x), float(y)) for x, y in world.map.waypoints),
+        start_xy=tuple(map(float, veh.start_xy)),
+        start_heading=float(veh.start_heading_rad),
+        speed=veh.speed_mps,
+        max_turn_rate=veh.max_turn_rate_rad_s,
+        max_turn_accel=veh.max_turn_accel_rad_s2,
+        steer_gain=veh.steer_gain_per_s,
+        at_waypoint=veh.at_waypoint_m,
+        loops=veh.loops,
+        height_above_ground=veh.height_above_ground_m,
+        altitude_smoothing_s=veh.altitude_smoothing_s,
+        dt=world.imu.dt_s,
+        drag_per_s=veh.drag_per_s,
+    )
+
+
+def nav_frame(world) -> NavFrame:
+    imu = world.imu
+    wie = earth_rate_enu(imu.latitude_rad) if imu.earth_rate else None
+    return NavFrame(imu.dt_s, gravity_enu(imu.gravity_mps2), wie)
+
+
+@lru_cache(maxsize=8)
+def _truth(plan: FlightPlan, spec: Any, bounds: tuple, landmarks_xy: tuple, g: float,
+           wie: tuple | None) -> tuple[Trajectory, Array]:
+    terrain = build_terrain(spec, bounds)
+    lm = np.array(landmarks_xy, dtype=float).reshape(-1, 2)
+    z = terrain.height(lm)
+    if not np.all(np.isfinite(z)):
+        i = int(np.flatnonzero(~np.isfinite(z))[0])
+        raise ValueError(f"landmark {i} {lm[i].tolist()} is outside the terrain mesh")
+    traj = fly(plan, terrain.height, gravity_enu(g), None if wie is None else np.array(wie))
+    return traj, np.column_stack([lm, z])
+
+
+def truth_of(world) -> tuple[Trajectory, Array]:
+    """``(trajectory, landmarks (N, 3))`` of ``world`` (deterministic; cached).
+
+    Raises ``WorldError`` naming the key when the path cannot be flown or a landmark lies
+    off the terrain.
+    """
+    from worlds.schema import WorldError
+
+    terrain_of(world)  # mesh problems are reported against their key
+    wie = nav_frame(world).earth_rate
+    try:
+        return _truth(flight_plan(world), world.terrain, tuple(world.map.bounds_m),
+                      tuple(map(tuple, world.map.landmarks.tolist())),
+                      float(world.imu.gravity_mps2), None if wie is None else tuple(wie))
+    except ValueError as exc:
+        key = "map.landmarks" if "landmark" in str(exc) else "map.waypoints"
+        raise WorldError(world.source or world.name, key, str(exc)) from None
+
+
