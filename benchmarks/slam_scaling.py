@@ -15,7 +15,9 @@ Prints one JSON object::
      "checks": {...}}
 
 Run: ``python -m benchmarks.slam_scaling`` (well under a minute; joint mode at 500
-landmarks is sampled with fewer steps).
+landmarks is sampled with fewer steps); ``python -m benchmarks.slam_scaling 10 35`` times
+only those sizes.  Local mode is the filter's partitioned steps,
+``filt.partitioned(layout)`` (:mod:`estimators.partitioned`).
 """
 
 from __future__ import annotations
@@ -26,17 +28,17 @@ import time
 
 import numpy as np
 
-from estimators import make_filter
+from estimators import BlockLayout, make_filter
 from estimators.linalg import tria
 from slam.kinds.planar.models import motion_model, observation_model, range_bearing, state_space
-from slam.mapping.joint import PLANAR_LAYOUT
-from slam.mapping.local import local_predict, local_update
 
 LANDMARKS = (10, 35, 135, 500)
 CASES = (("ekf", "joint"), ("ekf", "local"), ("srckf", "joint"), ("srckf", "local"))
 CONTROL_COV = np.diag([0.3, np.radians(3.0)]) ** 2
 OBS_COV = np.diag([0.1, np.radians(1.0)]) ** 2
 EPOCH = 8
+#: The planar state: the pose ``[x, y, φ]``, then 2-D landmarks (sizes from the spaces).
+LAYOUT = BlockLayout.of(state_space)
 
 
 def synthetic_belief(filt, n_lm: int, rng: np.random.Generator):
@@ -65,6 +67,7 @@ def time_step(name: str, mode: str, n_lm: int, seed: int = 0) -> float:
     motion = motion_model(0.025, 4.0, CONTROL_COV, EPOCH)
     u = np.tile([3.0, 0.05], (EPOCH, 1))
     n_steps = steps_for(n_lm, mode)
+    local = filt.partitioned(LAYOUT) if mode == "local" else None
     cases = []
     for _ in range(n_steps + 1):
         k = int(rng.integers(2, 5))
@@ -74,10 +77,9 @@ def time_step(name: str, mode: str, n_lm: int, seed: int = 0) -> float:
     times = []
     for i, (slots, z) in enumerate(cases):
         t0 = time.perf_counter()
-        if mode == "local":
-            b = local_predict(filt, b0, motion, u, PLANAR_LAYOUT)
-            local_update(filt, b, slots, observation_model(np.arange(len(slots)), OBS_COV), z,
-                         PLANAR_LAYOUT)
+        if local is not None:
+            b = local.predict(b0, motion, u)
+            local.update(b, slots, observation_model(np.arange(len(slots)), OBS_COV), z)
         else:
             b = filt.predict(b0, motion, u)
             filt.update(b, observation_model(slots, OBS_COV), z)
@@ -86,13 +88,14 @@ def time_step(name: str, mode: str, n_lm: int, seed: int = 0) -> float:
     return 1e6 * float(np.median(times))
 
 
-def main() -> dict:
+def main(landmarks: tuple[int, ...] = LANDMARKS) -> dict:
+    """Time every case at every size in ``landmarks``; print and return the JSON dict."""
     from threadpoolctl import threadpool_limits
 
     rows = []
     with threadpool_limits(1):
         for name, mode in CASES:
-            for n_lm in LANDMARKS:
+            for n_lm in landmarks:
                 us = time_step(name, mode, n_lm)
                 rows.append({"filter": name, "mode": mode, "landmarks": n_lm,
                              "us_per_step": round(us, 1)})
@@ -116,7 +119,7 @@ def main() -> dict:
     checks = {
         "srckf_local_exponent_at_most_2.2": exp_local <= 2.2,
         "srckf_local_faster_than_joint_from_35": all(
-            us("srckf", "local", n) < us("srckf", "joint", n) for n in LANDMARKS if n >= 35),
+            us("srckf", "local", n) < us("srckf", "joint", n) for n in landmarks if n >= 35),
     }
     out = {"rows": rows, "exponents": exponents, "exponents_135_to_500": tail, "checks": checks}
     print(json.dumps(out))
@@ -124,4 +127,4 @@ def main() -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    main(tuple(int(a) for a in sys.argv[1:]) or LANDMARKS)

@@ -5,6 +5,7 @@ from .hinf import HInfinityFilter, RiccatiConditionError
 from .homm import HighOrderMoment
 from .linalg import NotPositiveDefiniteError, chol, chol_update, svd_factor, tria
 from .models import Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
+from .partitioned import PARTITIONED_FILTERS, BlockLayout, NoPartitionedModeError
 from .rules import CentralDifference, Cubature, Unscented
 from .spaces import Angle, Euclidean, Product, Space, Wrapped, wrap_angle
 
@@ -13,5 +14,6 @@ __all__ = [
     "RiccatiConditionError", "HighOrderMoment", "NotPositiveDefiniteError", "chol", "chol_update",
     "svd_factor", "tria", "Gaussian", "Innovation", "Measurement", "Noise", "SqrtGaussian",
     "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
-    "Product", "Space", "Wrapped", "wrap_angle",
+    "Product", "Space", "Wrapped", "wrap_angle", "PARTITIONED_FILTERS", "BlockLayout",
+    "NoPartitionedModeError",
 ]

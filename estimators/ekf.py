@@ -12,20 +12,27 @@ spaces (:func:`numerical_jacobian`):
     K = P H^\top (H P H^\top + R)^{-1},\quad
     \hat x^+ = \hat x \boxplus K(z \boxminus h(\hat x)),\quad
     P^+ = (I - KH) P (I - KH)^\top + K R K^\top \ \text{(Joseph form)}.
+
+The Jacobian selection (the model's analytic Jacobian if it has one, else
+:func:`numerical_jacobian`) is :func:`linearise_transition` /
+:func:`linearise_measurement`, shared with the EKF's block-local steps
+(:meth:`ExtendedKalmanFilter.partitioned`, :mod:`estimators.partitioned`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from .linalg import Array, chol
+from .linalg import Array, chol, kalman_gain
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
-from .sigma import _gain_tri
 from .spaces import Space
+
+if TYPE_CHECKING:
+    from .partitioned import BlockLayout, EkfBlockSteps
 
 
 def numerical_jacobian(fn: Callable[[Array, Array], Array], x: Array, space_in: Space,
@@ -53,27 +60,48 @@ def numerical_jacobian(fn: Callable[[Array, Array], Array], x: Array, space_in: 
     return ((dY[:n] - dY[n:]) / (2.0 * eps)).T, y0
 
 
+def linearise_transition(model: Transition, x: Array, u: Any, space_in: Space,
+                         space_out: Space, eps: float = 1e-6
+                         ) -> tuple[Array, Array | None, Array]:
+    r"""The EKF's Jacobian selection for a transition at ``x``: ``(F, G, y)``.
+
+    :math:`F = \partial f/\partial\delta` (tangent in, tangent out), :math:`G = \partial
+    f/\partial w` at :math:`w = 0` (``None`` for additive noise) and :math:`y = f(x, u[, 0])`;
+    analytic when ``model.jacobian`` is given, else :func:`numerical_jacobian` through
+    ``space_in`` / ``space_out``.
+    """
+    if model.additive:
+        if model.jacobian is not None:
+            return model.jacobian(x, u), None, model.f(x[None, :], u)[0]
+        F, y = numerical_jacobian(lambda X, W: model.f(X, u), x, space_in, space_out, 0, eps)
+        return F, None, y
+    nw = model.noise.dim
+    if model.jacobian is not None:
+        F, G = model.jacobian(x, u)
+        return F, G, model.f(x[None, :], u, np.zeros((1, nw)))[0]
+    J, y = numerical_jacobian(lambda X, W: model.f(X, u, W), x, space_in, space_out, nw, eps)
+    return J[:, :space_in.dim], J[:, space_in.dim:], y
+
+
+def linearise_measurement(model: Measurement, x: Array, space: Space, eps: float = 1e-6
+                          ) -> tuple[Array, Array]:
+    r"""The EKF's Jacobian selection for a measurement at ``x`` (on ``space``):
+    :math:`(H, \hat z)` with :math:`H = \partial h/\partial\delta`, analytic when
+    ``model.jacobian`` is given, else :func:`numerical_jacobian`."""
+    if model.jacobian is not None:
+        return model.jacobian(x), model.h(x[None, :])[0]
+    return numerical_jacobian(lambda X, W: model.h(X), x, space, model.space, 0, eps)
+
+
 def ekf_predict(belief: Gaussian, model: Transition, u: Any = None, eps: float = 1e-6
                 ) -> Gaussian:
     """EKF time update (additive or non-additive noise, optional change of space)."""
     m, P = belief.mean, belief.cov
     space = model.space or belief.space
-    if model.additive:
-        if model.jacobian is not None:
-            F, y = model.jacobian(m, u), model.f(m[None, :], u)[0]
-        else:
-            F, y = numerical_jacobian(lambda X, W: model.f(X, u), m, belief.space, space,
-                                      0, eps)
+    F, G, y = linearise_transition(model, m, u, belief.space, space, eps)
+    if G is None:
         Pn = F @ P @ F.T + model.noise.cov
     else:
-        nw = model.noise.dim
-        if model.jacobian is not None:
-            F, G = model.jacobian(m, u)
-            y = model.f(m[None, :], u, np.zeros((1, nw)))[0]
-        else:
-            J, y = numerical_jacobian(lambda X, W: model.f(X, u, W), m, belief.space, space,
-                                      nw, eps)
-            F, G = J[:, :belief.dim], J[:, belief.dim:]
         Pn = F @ P @ F.T + G @ model.noise.cov @ G.T
     return Gaussian(y, 0.5 * (Pn + Pn.T), space)
 
@@ -82,16 +110,12 @@ def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
                ) -> tuple[Gaussian, Innovation]:
     """EKF measurement update (Joseph form)."""
     m, P = belief.mean, belief.cov
-    if model.jacobian is not None:
-        H, zhat = model.jacobian(m), model.h(m[None, :])[0]
-    else:
-        H, zhat = numerical_jacobian(lambda X, W: model.h(X), m, belief.space, model.space,
-                                     0, eps)
+    H, zhat = linearise_measurement(model, m, belief.space, eps)
     nu = model.space.local(zhat, np.asarray(z, dtype=float))
     PHt = P @ H.T
     Pzz = H @ PHt + model.noise.cov
     Szz = chol(0.5 * (Pzz + Pzz.T))
-    K = _gain_tri(PHt, Szz)
+    K = kalman_gain(PHt, Szz)
     A = np.eye(belief.dim) - K @ H
     Pn = A @ P @ A.T + K @ model.noise.cov @ K.T
     w = np.linalg.solve(Szz, nu)
@@ -101,10 +125,12 @@ def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
 
 @dataclass(frozen=True)
 class ExtendedKalmanFilter:
-    """EKF with the same interface as :class:`~estimators.sigma.SigmaPointFilter`."""
+    """EKF with the same interface as :class:`~estimators.sigma.SigmaPointFilter`, and
+    block-local (partitioned) steps, :meth:`partitioned`."""
 
     name: str = "ekf"
     eps: float = 1e-6
+    supports_partitioned: ClassVar[bool] = True
 
     def init(self, mean: Array, space: Space, cov: Array | None = None,
              sqrt: Array | None = None) -> Gaussian:
@@ -118,6 +144,14 @@ class ExtendedKalmanFilter:
     def update(self, belief: Belief, model: Measurement, z: Array
                ) -> tuple[Gaussian, Innovation]:
         return ekf_update(_dense(belief), model, z, self.eps)
+
+    def partitioned(self, layout: BlockLayout) -> EkfBlockSteps:
+        """Block-local steps on a state laid out as ``layout`` (``local`` mode,
+        :mod:`estimators.partitioned`), linearised by :func:`linearise_transition` /
+        :func:`linearise_measurement` like :meth:`predict` / :meth:`update`."""
+        from .partitioned import EkfBlockSteps
+
+        return EkfBlockSteps(self, layout)
 
 
 def _dense(belief: Belief) -> Gaussian:

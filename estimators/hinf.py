@@ -112,7 +112,7 @@ The time update is the rule's sigma-point prediction, unchanged
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, NoReturn
 
 import numpy as np
 
@@ -121,6 +121,9 @@ from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Tra
 from .rules import PointRule
 from .sigma import Form, SigmaPointFilter, SqrtMethod, sigma_update
 from .spaces import Space
+
+if TYPE_CHECKING:
+    from .partitioned import BlockLayout
 
 OnFailure = Literal["raise", "kalman"]
 
@@ -258,6 +261,8 @@ class HInfinityFilter:
     gamma: float = 5.0
     on_failure: OnFailure = "raise"
     sqrt_method: SqrtMethod = "cholesky"
+    #: No block-local steps: the H∞ bound acts on the whole joint covariance.
+    supports_partitioned: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         _check_gamma(self.gamma)
@@ -280,3 +285,9 @@ class HInfinityFilter:
                ) -> tuple[Belief, Innovation]:
         return hinf_update(self.rule, self.form, belief, model, z, self.gamma,
                            self.on_failure, self.sqrt_method)
+
+    def partitioned(self, layout: BlockLayout) -> NoReturn:
+        """Raises :class:`~estimators.partitioned.NoPartitionedModeError` (no local mode)."""
+        from .partitioned import refuse_partitioned
+
+        refuse_partitioned(self.name)

@@ -59,6 +59,31 @@ def solve_lower(L: Array, B: Array, transpose: bool = False) -> Array:
     return X
 
 
+def kalman_gain(Pxz: Array, Szz: Array) -> Array:
+    r""":math:`K = P_{xz} (S_{zz} S_{zz}^\top)^{-1}` with two triangular solves (no inverse)."""
+    return solve_lower(Szz, solve_lower(Szz, Pxz.T), transpose=True).T
+
+
+def qr_complete(M: Array) -> tuple[Array, Array]:
+    r"""Complete QR of a tall ``M`` (m, k): :math:`M = Q\,[R;\ 0]` with the full orthogonal
+    :math:`Q` (m, m) and the upper-triangular :math:`R` (k, k) with a non-negative
+    diagonal (LAPACK ``geqrf``/``orgqr``; the first ``k`` columns of :math:`Q` are
+    sign-fixed with :math:`R`)."""
+    m, k = M.shape
+    qr, tau, _, info = lapack.dgeqrf(np.array(M, order="F"))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"QR failed (LAPACK info {info})")
+    R = np.triu(qr[:k])
+    A = np.zeros((m, m), order="F")
+    A[:, :k] = qr
+    Q, _, info = lapack.dorgqr(A, np.concatenate([tau, np.zeros(m - len(tau))]))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"QR failed (LAPACK info {info})")
+    d = np.where(np.diagonal(R) < 0.0, -1.0, 1.0)
+    Q[:, :k] *= d
+    return Q, R * d[:, None]
+
+
 def chol(P: Array) -> Array:
     """Lower Cholesky factor of ``P``; raises :class:`NotPositiveDefiniteError`."""
     try:
@@ -200,7 +225,7 @@ def chol_update_mixed(S: Array, Vp: Array, Vn: Array, block: int = SWEEP_BLOCK) 
     :math:`S'_{TT}` continues the sweep with :math:`V'_T` and the same signature.  Needs
     non-singular diagonal blocks of :math:`S`; raises :class:`NotPositiveDefiniteError` if
     a block is singular or the result is not positive definite.  Used to fold a pending
-    positive update into a measurement downdate (:mod:`slam.mapping.local`).
+    positive update into a measurement downdate (:mod:`estimators.partitioned`).
     """
     S = np.asarray(S, dtype=float)
     n = S.shape[0]

@@ -33,7 +33,7 @@ over the state augmented with the noise input.  A transition with its own
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from .linalg import (
     block_diag2,
     chol,
     chol_update,
+    kalman_gain,
     solve_lower,
     svd_factor,
     tria,
@@ -50,6 +51,9 @@ from .linalg import (
 from .models import Belief, Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
 from .rules import Factor, PointRule
 from .spaces import Space
+
+if TYPE_CHECKING:
+    from .partitioned import BlockLayout, SqrtSigmaBlockSteps
 
 Form = Literal["dense", "sqrt", "svd"]
 
@@ -105,8 +109,9 @@ def _dense(fac: Factor, noise_cov: Array | None) -> Array:
     return 0.5 * (P + P.T)
 
 
-def _factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
-    """Square factor of ``[C, extra][C, extra]ᵀ + sign·c0 c0ᵀ`` by QR (``sqrt``) or SVD."""
+def factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
+    """Square factor of ``[C, extra][C, extra]ᵀ + sign·c0 c0ᵀ`` by QR (``sqrt``: ``tria``
+    then a signed rank-one Cholesky update) or SVD (``svd``)."""
     blocks = [fac.C] if extra is None else [fac.C, extra]
     if form == "svd":
         if fac.c0 is not None:
@@ -124,7 +129,7 @@ def _covariance(form: Form, fac: Factor, noise: Noise | None) -> Array:
     """The new belief's covariance (dense form) or factor (other forms)."""
     if form == "dense":
         return _dense(fac, None if noise is None else noise.cov)
-    return _factorise(form, fac, None if noise is None else noise.sqrt)
+    return factorise(form, fac, None if noise is None else noise.sqrt)
 
 
 def _belief(form: Form, mean: Array, cov_or_sqrt: Array, space: Space) -> Belief:
@@ -170,7 +175,7 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
     if form == "dense":
         Pzz = _covariance("dense", zfac, R)
         Szz = chol(Pzz)
-        K = _gain_tri(Pxz, Szz)
+        K = kalman_gain(Pxz, Szz)
         P = belief.cov - K @ Pzz @ K.T
         post = 0.5 * (P + P.T)
         w = solve_lower(Szz, nu)
@@ -178,8 +183,8 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         Szz = _covariance("sqrt", zfac, R)
         if not np.all(np.diagonal(Szz) > 0.0):
             raise NotPositiveDefiniteError("innovation covariance is singular")
-        K = _gain_tri(Pxz, Szz)
-        post = _factorise("sqrt", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
+        K = kalman_gain(Pxz, Szz)
+        post = factorise("sqrt", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
         w = solve_lower(Szz, nu)
     else:
         Szz = _covariance("svd", zfac, R)
@@ -187,7 +192,7 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         if not np.all(s > 0.0):
             raise NotPositiveDefiniteError("innovation covariance is singular")
         K = ((Pxz @ U) / s**2) @ U.T
-        post = _factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
+        post = factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
         w = (U.T @ nu) / s
     mean = belief.space.retract(belief.mean, K @ nu)
     return _belief(form, mean, post, belief.space), Innovation(nu, Szz, float(w @ w))
@@ -200,17 +205,13 @@ def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Ar
     return Factor(Cx - K @ Cz, c0x - K @ c0z, sign)
 
 
-def _gain_tri(Pxz: Array, Szz: Array) -> Array:
-    """:math:`K = P_{xz} (S S^\\top)^{-1}` with two triangular solves."""
-    return solve_lower(Szz, solve_lower(Szz, Pxz.T), transpose=True).T
-
-
 @dataclass(frozen=True)
 class SigmaPointFilter:
     """A sigma-point Kalman filter: a rule and a covariance form, nothing else.
 
     ``predict`` and ``update`` are pure: they return new beliefs and never keep
-    anything for the next call.
+    anything for the next call.  The square-root form also has block-local
+    (partitioned) steps, :meth:`partitioned`.
     """
 
     name: str
@@ -235,3 +236,18 @@ class SigmaPointFilter:
     def update(self, belief: Belief, model: Measurement, z: Array
                ) -> tuple[Belief, Innovation]:
         return sigma_update(self.rule, self.form, belief, model, z, self.sqrt_method)
+
+    @property
+    def supports_partitioned(self) -> bool:
+        """True for the square-root form: it has :meth:`partitioned` steps."""
+        return self.form == "sqrt"
+
+    def partitioned(self, layout: BlockLayout) -> SqrtSigmaBlockSteps:
+        """Block-local steps on a state laid out as ``layout`` (``local`` mode,
+        :mod:`estimators.partitioned`); the square-root form only, otherwise raises
+        :class:`~estimators.partitioned.NoPartitionedModeError`."""
+        from .partitioned import SqrtSigmaBlockSteps, refuse_partitioned
+
+        if not self.supports_partitioned:
+            refuse_partitioned(self.name)
+        return SqrtSigmaBlockSteps(self, layout)

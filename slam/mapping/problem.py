@@ -18,7 +18,8 @@ functions it calls:
 ``local``
     sigma points only over the blocks a step touches, the rest of the joint state carried
     by exact linear relations and rank-k updates of the joint factor
-    (:mod:`slam.mapping.local`; EKF and the square-root sigma-point filters).
+    (the filter's partitioned steps, ``filt.partitioned(layout)``,
+    :mod:`estimators.partitioned`; EKF and the square-root sigma-point filters).
 
 Numerical failure (loss of positive definiteness, a non-finite estimate) or a
 vehicle error beyond ``diverge_m`` ends the run and is reported as a divergence in
@@ -37,7 +38,7 @@ from estimators import make_filter
 from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Innovation, Measurement, Transition
-from slam.mapping.local import Layout, check_local, local_augment, local_predict, local_update
+from estimators.partitioned import BlockLayout
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
 MODES: tuple[str, ...] = ("joint", "local")
@@ -88,7 +89,8 @@ class SlamProblem:
     steps : (E,) epochs (step indices, increasing, from 0).
     motion : ``motion(k0, k1, belief) -> (transition, u)`` from epoch step ``k0`` to
         ``k1``; the transition moves the vehicle coordinates of a state of any width and
-        copies the rest (``belief`` is the current one, for models linearised at it).
+        copies the rest (``belief`` is the current one, for models linearised at it; local
+        mode passes the vehicle's marginal, ``layout.vehicle(belief)``).
     observations : step -> slice of ``obs`` / ``obs_id`` taken at that step.
     obs : (M, dz) observations; obs_id : (M,) their landmark ids.
     observe : ``observe(slots, index) -> Measurement`` of the landmarks in state slots
@@ -97,9 +99,8 @@ class SlamProblem:
         ``[vehicle; landmarks in slots]``, passed with ``slots = 0..k-1``).
     augment : ``augment(n_landmarks, z_new, index) -> Transition`` into a state with the
         new landmarks appended (local mode passes ``n_landmarks = 0``).
-    layout : the state's block layout (ambient sizes) and spaces.
-    vehicle_dim : tangent size of the vehicle (default: the ambient ``layout.nv``);
-        landmarks are flat (ambient = tangent = ``layout.nl``).
+    layout : the state's block layout (ambient and tangent sizes of the vehicle and of a
+        landmark) and spaces.
     truth : (K + 1, >= position_dims) true positions by step, or ``None`` (no divergence
         distance); position_dims : how many leading coordinates are the position.
     nearest : ``nearest(belief, z, n_landmarks, gates) -> slot | -1 | None`` for
@@ -117,21 +118,15 @@ class SlamProblem:
     obs_id: Array
     observe: Callable[[Array, Array], Measurement]
     augment: Callable[[int, Array, Array], Transition]
-    layout: Layout
-    vehicle_dim: int | None = None
+    layout: BlockLayout
     truth: Array | None = None
     position_dims: int = 2
     nearest: Callable[..., int | None] | None = None
     record_rows: Array | None = None
 
-    @property
-    def nv_tangent(self) -> int:
-        return self.layout.nv if self.vehicle_dim is None else self.vehicle_dim
-
     def landmark_rows(self, slot: int) -> Array:
         """Tangent rows of landmark ``slot``."""
-        nl = self.layout.nl
-        return self.nv_tangent + nl * slot + np.arange(nl)
+        return self.layout.rows([slot])[self.layout.vehicle_dim:]
 
 
 class _JointSteps:
@@ -152,23 +147,21 @@ class _JointSteps:
 
 
 class _LocalSteps:
-    """``local`` mode: block-local steps (:mod:`slam.mapping.local`)."""
+    """``local`` mode: the filter's partitioned steps (:mod:`estimators.partitioned`)."""
 
     def __init__(self, filt, problem: SlamProblem):
-        check_local(filt)
-        self.filt, self.problem, self.layout = filt, problem, problem.layout
+        self.steps, self.problem = filt.partitioned(problem.layout), problem
 
     def predict(self, b: Belief, model: Transition, u: Any) -> Belief:
-        return local_predict(self.filt, b, model, u, self.layout)
+        return self.steps.predict(b, model, u)
 
     def update(self, b: Belief, slots: Array, index: Array, z: Array
                ) -> tuple[Belief, Innovation]:
         model = self.problem.observe(np.arange(len(slots)), index)
-        return local_update(self.filt, b, slots, model, z, self.layout)
+        return self.steps.update(b, slots, model, z)
 
     def augment(self, b: Belief, n_before: int, z_new: Array, index: Array) -> Belief:
-        return local_augment(self.filt, b, self.problem.augment(0, z_new, index), z_new,
-                             self.layout)
+        return self.steps.augment(b, self.problem.augment(0, z_new, index), z_new)
 
 
 def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
@@ -184,7 +177,8 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
         raise ValueError("this log has no nearest-neighbour association; use known ids")
     filt = make_filter(filter_name, **(filter_params or {}))
     ops = (_LocalSteps if mode == "local" else _JointSteps)(filt, problem)
-    nv, nvt = problem.layout.nv, problem.nv_tangent
+    lay = problem.layout
+    nv, nvt = lay.vehicle_ambient, lay.vehicle_dim
     steps = problem.steps
     space0 = problem.layout.space_of(0)
     P0 = np.asarray(problem.P0, dtype=float)
@@ -206,14 +200,19 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
         if truth is not None:
             err = float(np.linalg.norm(b.mean[:d] - truth[k1, :d]))
             if err > diverge_m:
-                raise Divergence(f"vehicle error above {diverge_m} m at step {k1} ({err:.1f} m)")
+                raise Divergence(f"vehicle error above {diverge_m} m at step {k1} "
+                                 f"(position error {err:.3g} m)")
 
-    out = run_epochs(filt, b, E, steps=ops, record=record, check=check,
-                     transition=lambda e, b: problem.motion(int(steps[e - 1]), int(steps[e]), b),
+    def transition(e: int, b: Belief) -> tuple[Transition, Any]:
+        # local mode predicts the vehicle alone: its model is built for the vehicle marginal
+        at = lay.vehicle(b) if mode == "local" else b
+        return problem.motion(int(steps[e - 1]), int(steps[e]), at)
+
+    out = run_epochs(filt, b, E, steps=ops, record=record, check=check, transition=transition,
                      correct=lambda e, b: assoc.correct(int(steps[e]), b))
     b = out.belief
-    n_lm, nl = len(assoc.slot_ids), problem.layout.nl
-    lm = b.mean[nv:nv + nl * n_lm].reshape(n_lm, nl)
+    n_lm, nla, nl = len(assoc.slot_ids), lay.landmark_ambient, lay.landmark_dim
+    lm = b.mean[nv:nv + nla * n_lm].reshape(n_lm, nla)
     lm_cov = np.array([b.cov_block(problem.landmark_rows(s)) for s in range(n_lm)]
                       ).reshape(n_lm, nl, nl)
     return SlamResult(filter_name, steps, poses, covs, np.array(assoc.slot_ids, dtype=int), lm,

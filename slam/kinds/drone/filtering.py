@@ -8,14 +8,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimators import wrap_angle
+from estimators import BlockLayout, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief
 from nav.strapdown import dcm_unit, mechanise
 from slam.kinds.drone.models import (
     POSE_ROWS,
     VEH_AMBIENT,
-    VEH_DIM,
     augmentation_model,
     body_vectors,
     error_transitions,
@@ -28,11 +27,10 @@ from slam.kinds.drone.models import (
 )
 from slam.kinds.drone.simulate import DroneLog
 from slam.mapping.association import gated_choice
-from slam.mapping.local import Layout
 from slam.mapping.problem import SlamProblem, run_problem
 
 IMU_ONLY = "imu_only"
-DRONE_LAYOUT = Layout(VEH_AMBIENT, 3, state_space)
+DRONE_LAYOUT = BlockLayout.of(state_space)
 
 
 # --------------------------------------------------------------------------- filtering
@@ -112,7 +110,7 @@ def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
         obs=log.obs, obs_id=log.obs_id,
         observe=lambda slots, index: observation_model(slots, obs_cov),
         augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
-        layout=DRONE_LAYOUT, vehicle_dim=VEH_DIM, truth=log.truth, position_dims=3,
+        layout=DRONE_LAYOUT, truth=log.truth, position_dims=3,
         nearest=nearest, record_rows=POSE_ROWS)
 
 

@@ -69,15 +69,13 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
     (N, 3) and ``times`` the epochs (s).
     """
     fs = world.filters
-    if fs.mode != "joint":
-        raise ValueError(f"drone-slam worlds run joint mode only (sigma points over the whole "
-                         f"state), not {fs.mode!r}")
     rng = np.random.default_rng(seed_seq)
     log = simulate_drone(world, rng)
     ests = [run_drone_filter(log, name, association=fs.association,
                              gates=(fs.gate_accept, fs.gate_new), diverge_m=fs.divergence_m,
                              imu_noise_scale=fs.imu_noise_scale,
-                             sensor_noise_scale=fs.sensor_noise_scale) for name in filters]
+                             sensor_noise_scale=fs.sensor_noise_scale, mode=fs.mode)
+            for name in filters]
     ests.append(imu_only(log, fs.imu_noise_scale))
     if reference:
         ests.append(smooth_drone(log, imu_noise_scale=fs.imu_noise_scale,

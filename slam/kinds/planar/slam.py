@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators import Gaussian, wrap_angle
+from estimators import BlockLayout, Gaussian, wrap_angle
 from estimators.linalg import Array
 from estimators.models import Belief, Transition
 from slam.kinds.planar.log import PlanarLog
@@ -19,11 +19,10 @@ from slam.kinds.planar.models import (
     state_space,
 )
 from slam.mapping.association import gated_choice
-from slam.mapping.local import Layout
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem
 
 #: Layout of the planar state: the pose ``[x, y, φ]``, then 2-D landmarks.
-PLANAR_LAYOUT = Layout(3, 2, state_space)
+PLANAR_LAYOUT = BlockLayout.of(state_space)
 
 
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
@@ -90,7 +89,7 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
     noise_scale : multiplies the noise covariances the filter assumes (a plumbing
         check runs noise-free logs with tiny assumed noise).
     mode : ``"joint"`` (sigma points over the whole state) or ``"local"`` (over the
-        blocks a step touches, :mod:`slam.mapping.local`).
+        blocks a step touches, :meth:`estimators.Filter.partitioned`).
     """
     problem = planar_problem(log, epoch_steps=epoch_steps, noise_scale=noise_scale)
     return run_problem(problem, filter_name, mode=mode, association=association, gates=gates,

@@ -49,11 +49,11 @@ Scoring (:func:`score_filter`)
     filter epochs, and its whole-log time.
 """
 
+from estimators import PARTITIONED_FILTERS as LOCAL_FILTERS
 from slam.kind import Kind
 from slam.kinds.recorded.report import REPORT
 from slam.kinds.recorded.run import KIND as NAME
 from slam.kinds.recorded.run import MODES, open_log, run_once, summarize
-from slam.mapping.local import LOCAL_FILTERS
 
 
 def _no_world_file(data, name, source, base):

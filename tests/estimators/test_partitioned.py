@@ -1,4 +1,5 @@
-"""``local`` mode (slam/local.py): block-local steps against joint mode and dense references.
+"""Partitioned (``local`` mode) steps, ``filt.partitioned(layout)`` (estimators.partitioned),
+on planar models against joint mode and dense references.
 
 * the O(k n²) Cholesky update/downdate sweeps equal a refactorisation;
 * on a model linear in the whole state (vehicle and map) local and joint agree to 1e-9
@@ -9,23 +10,37 @@
   the block is the whole state; the EKF agrees with joint mode on the whole run;
 * on nonlinear models the SRCDKF's prediction and augmentation equal joint mode (its
   step h does not depend on the dimension); the SRCKF/SRUKF differ from joint mode in
-  every step (joint mode spreads the block's points by sqrt(n)): by millimetres here.
+  every step (joint mode spreads the block's points by sqrt(n)): by millimetres here;
+* only the filters in PARTITIONED_FILTERS have the steps; the others refuse clearly.
+
+Ambient != tangent (a quaternion vehicle): ``test_partitioned_manifold.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from small_worlds import small_world
 
-from estimators import Euclidean, Measurement, Noise, SqrtGaussian, Transition, Wrapped
+from estimators import (
+    FILTER_NAMES,
+    PARTITIONED_FILTERS,
+    ROBUST_FILTER_NAMES,
+    BlockLayout,
+    Euclidean,
+    Measurement,
+    Noise,
+    NoPartitionedModeError,
+    SqrtGaussian,
+    Transition,
+    Wrapped,
+)
 from estimators.linalg import NotPositiveDefiniteError, chol_update, chol_update_sweep, tria
 from estimators.sigma import draw
 from slam.kinds.planar.models import augmentation_model, motion_model, observation_model
 from slam.kinds.planar.run import run_once
 from slam.kinds.planar.simulate import simulate_planar
-from slam.mapping.joint import PLANAR_LAYOUT, run_slam
-from slam.mapping.local import Layout, local_augment, local_predict, local_update
+from slam.kinds.planar.slam import PLANAR_LAYOUT, run_slam
+from tests.small_worlds import small_world
 from worlds.schema import WorldError
 
 FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
@@ -73,13 +88,45 @@ def test_sweep_update_of_a_singular_factor_and_failing_downdate():
         chol_update_sweep(np.eye(3), np.array([0.0, 1.5, 0.0]), -1.0)
 
 
+# --------------------------------------------------------------------------- the interface
+
+@pytest.mark.parametrize("name", FILTER_NAMES + ROBUST_FILTER_NAMES)
+def test_partitioned_steps_are_reached_through_the_filter(name):
+    filt = make(name, {})
+    assert filt.supports_partitioned == (name in PARTITIONED_FILTERS)
+    if filt.supports_partitioned:
+        steps = filt.partitioned(PLANAR_LAYOUT)
+        assert steps.layout is PLANAR_LAYOUT and steps.filt is filt
+        return
+    with pytest.raises(NoPartitionedModeError, match="no local mode") as err:
+        filt.partitioned(PLANAR_LAYOUT)
+    assert isinstance(err.value, ValueError)
+
+
+def test_block_layout_rows_and_sizes():
+    assert BlockLayout.of(_space) == LINEAR
+    assert PLANAR_LAYOUT.rows([2, 0]).tolist() == [0, 1, 2, 7, 8, 3, 4]
+    assert PLANAR_LAYOUT.cols([2, 0]).tolist() == [0, 1, 2, 7, 8, 3, 4]
+    with pytest.raises(ValueError, match="do not match"):
+        BlockLayout(3, 3, 3, 3, _space)
+
+
+def test_local_augmentation_needs_the_noise_as_an_input():
+    mo = Transition(lambda X, u: X, Noise.from_cov(np.eye(3)))
+    for name in PARTITIONED_FILTERS:
+        filt = make(name, {})
+        b = filt.init(np.zeros(3), _space(0), cov=np.eye(3))
+        with pytest.raises(ValueError, match="non-additive"):
+            filt.partitioned(LINEAR).augment(b, mo, None)
+
+
 # --------------------------------------------------------------------------- linear model
 
 def _space(k: int) -> Wrapped:
     return Wrapped(3 + 2 * k, (2,))
 
 
-LINEAR = Layout(3, 2, _space)
+LINEAR = BlockLayout(3, 3, 2, 2, _space)
 B = np.array([[1.0, 0.2, 0.0], [0.0, 1.0, 0.1], [0.05, 0.0, 1.0]])
 F = np.array([[1.0, 0.0, 0.3], [0.0, 1.0, -0.2], [0.0, 0.0, 1.0]])
 Q = Noise.from_cov(np.diag([0.04, 0.02, 0.01]))
@@ -152,19 +199,20 @@ def _run_ops(filt, local: bool):
     mo = linear_motion()
     u = np.array([0.5, -0.2, 0.02])
     nis = []
+    steps = filt.partitioned(LINEAR)
 
     def predict(b):
-        return local_predict(filt, b, mo, u, LINEAR) if local else filt.predict(b, mo, u)
+        return steps.predict(b, mo, u) if local else filt.predict(b, mo, u)
 
     def augment(b, n_lm, z):
         if local:
-            return local_augment(filt, b, linear_augmentation(0, z), z, LINEAR)
+            return steps.augment(b, linear_augmentation(0, z), z)
         return filt.predict(b, linear_augmentation(n_lm, z), z)
 
     def update(b, slots, z):
         if local:
-            b, inn = local_update(filt, b, np.array(slots),
-                                  linear_observation(np.arange(len(slots))), z, LINEAR)
+            b, inn = steps.update(b, np.array(slots), linear_observation(np.arange(len(slots))),
+                                  z)
         else:
             b, inn = filt.update(b, linear_observation(slots), z)
         nis.append(inn.nis)
@@ -272,25 +320,25 @@ def _dense_reference_augment(filt, b, z):
 @pytest.mark.parametrize("name, params", [c for c in CASES if c[0] != "ekf"])
 def test_local_steps_equal_dense_statistical_linearisation(name, params):
     filt = make(name, params)
+    steps = filt.partitioned(PLANAR_LAYOUT)
     b = _planar_belief(filt, 4)
     mo = motion_model(0.025, 4.0, np.diag([0.3, np.radians(3.0)]) ** 2, 8)
     u = np.tile([3.0, 0.2], (8, 1))
-    got = local_predict(filt, b, mo, u, PLANAR_LAYOUT)
+    got = steps.predict(b, mo, u)
     mean, P = _dense_reference_predict(filt, b, mo, u)
     np.testing.assert_allclose(got.mean, mean, atol=1e-10)
     np.testing.assert_allclose(cov(got), P, atol=1e-10)
 
     z = np.array([8.0, 0.3, 12.0, -0.7])
     slots = np.array([3, 1])
-    got, _ = local_update(filt, b, slots, observation_model(np.arange(2), np.diag(
-        [0.1, 0.02]) ** 2), z, PLANAR_LAYOUT)
+    got, _ = steps.update(b, slots, observation_model(np.arange(2), np.diag([0.1, 0.02]) ** 2),
+                          z)
     mean, P = _dense_reference_update(filt, b, slots, z)
     np.testing.assert_allclose(got.mean, mean, atol=1e-10)
     np.testing.assert_allclose(cov(got), P, atol=1e-10)
 
     z = np.array([6.0, 0.5, 9.0, -1.0])
-    got = local_augment(filt, b, augmentation_model(0, z, np.diag([0.1, 0.02]) ** 2), z,
-                        PLANAR_LAYOUT)
+    got = steps.augment(b, augmentation_model(0, z, np.diag([0.1, 0.02]) ** 2), z)
     mean, P = _dense_reference_augment(filt, b, z)
     assert got.dim == b.dim + 4
     np.testing.assert_allclose(got.mean, mean, atol=1e-10)
@@ -301,18 +349,18 @@ def test_local_steps_equal_dense_statistical_linearisation(name, params):
 def test_local_equals_joint_when_the_block_is_the_whole_state(name, params):
     """Nonlinear models; no landmarks outside the block: the same points, the same result."""
     filt = make(name, params)
+    steps = filt.partitioned(PLANAR_LAYOUT)
     obs_cov = np.diag([0.1, 0.02]) ** 2
     b0 = _planar_belief(filt, 0)
     mo = motion_model(0.025, 4.0, np.diag([0.3, np.radians(3.0)]) ** 2, 4)
     u = np.tile([3.0, 0.2], (4, 1))
-    pairs = [(local_predict(filt, b0, mo, u, PLANAR_LAYOUT), filt.predict(b0, mo, u))]
+    pairs = [(steps.predict(b0, mo, u), filt.predict(b0, mo, u))]
     z = np.array([6.0, 0.5, 9.0, -1.0])
-    pairs.append((local_augment(filt, b0, augmentation_model(0, z, obs_cov), z, PLANAR_LAYOUT),
+    pairs.append((steps.augment(b0, augmentation_model(0, z, obs_cov), z),
                   filt.predict(b0, augmentation_model(0, z, obs_cov), z)))
     b2 = _planar_belief(filt, 2, seed=3)
     z = np.array([8.0, 0.3, 12.0, -0.7])
-    lo, inn_l = local_update(filt, b2, np.arange(2), observation_model(np.arange(2), obs_cov), z,
-                             PLANAR_LAYOUT)
+    lo, inn_l = steps.update(b2, np.arange(2), observation_model(np.arange(2), obs_cov), z)
     jo, inn_j = filt.update(b2, observation_model(np.arange(2), obs_cov), z)
     pairs.append((lo, jo))
     assert abs(inn_l.nis - inn_j.nis) < 1e-9
@@ -325,13 +373,14 @@ def test_cdkf_prediction_and_augmentation_equal_joint_on_the_nonlinear_model():
     """The central-difference step does not depend on the dimension, and joint-mode points
     along landmark columns leave the vehicle alone: the same quadrature in both modes."""
     filt = make("srcdkf", {})
+    steps = filt.partitioned(PLANAR_LAYOUT)
     obs_cov = np.diag([0.1, 0.02]) ** 2
     b = _planar_belief(filt, 4)
     mo = motion_model(0.025, 4.0, np.diag([0.3, np.radians(3.0)]) ** 2, 8)
     u = np.tile([3.0, 0.2], (8, 1))
     z = np.array([6.0, 0.5])
-    pairs = [(local_predict(filt, b, mo, u, PLANAR_LAYOUT), filt.predict(b, mo, u)),
-             (local_augment(filt, b, augmentation_model(0, z, obs_cov), z, PLANAR_LAYOUT),
+    pairs = [(steps.predict(b, mo, u), filt.predict(b, mo, u)),
+             (steps.augment(b, augmentation_model(0, z, obs_cov), z),
               filt.predict(b, augmentation_model(4, z, obs_cov), z))]
     for lo, jo in pairs:
         np.testing.assert_allclose(lo.mean, jo.mean, atol=1e-12)
