@@ -135,11 +135,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, NoReturn, Protocol
+from typing import TYPE_CHECKING, Any, NoReturn, Protocol
 
 import numpy as np
 
-from .ekf import ExtendedKalmanFilter, linearise_measurement, linearise_transition
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
@@ -151,10 +150,15 @@ from .linalg import (
     solve_lower,
     tria,
 )
+from .linearise import linearise_measurement, linearise_transition
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from .rules import Factor, PointRule
-from .sigma import SigmaPointFilter, draw, factorise
+from .sigma_points import draw, factorise
 from .spaces import Space
+
+if TYPE_CHECKING:  # annotations only: the filters import this module
+    from .ekf import ExtendedKalmanFilter
+    from .sigma import SigmaPointFilter
 
 __all__ = [
     "MAX_PENDING", "PARTITIONED_FILTERS", "BlockLayout", "EkfBlockSteps",

@@ -33,102 +33,28 @@ over the state augmented with the noise input.  A transition with its own
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any
 
 import numpy as np
 
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
-    block_diag2,
     chol,
-    chol_update,
     kalman_gain,
     solve_lower,
-    svd_factor,
-    tria,
 )
 from .models import Belief, Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
+from .partitioned import BlockLayout, SqrtSigmaBlockSteps, refuse_partitioned
 from .rules import Factor, PointRule
+from .sigma_points import Form, SqrtMethod, dense_cov, draw, factorise
 from .spaces import Space
-
-if TYPE_CHECKING:
-    from .partitioned import BlockLayout, SqrtSigmaBlockSteps
-
-Form = Literal["dense", "sqrt", "svd"]
-
-
-SqrtMethod = Literal["cholesky", "eigh"]
-
-
-def factor_of(belief: Belief, method: SqrtMethod = "cholesky") -> Array:
-    r"""A square factor of the belief's covariance.
-
-    A square-root belief gives its stored factor.  A dense belief is factored by
-    Cholesky, or by the eigen-decomposition :math:`P = U\Lambda U^\top \to U\Lambda^{1/2}`
-    (``"eigh"``: the points the SVD-factored filter draws, up to order and sign).
-    """
-    if isinstance(belief, SqrtGaussian):
-        return belief.sqrt
-    if method == "cholesky":
-        return chol(belief.cov)
-    lam, U = np.linalg.eigh(belief.cov)
-    if not lam.min() > 0.0:
-        raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} <= 0")
-    return U * np.sqrt(lam)
-
-
-def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,
-         method: SqrtMethod = "cholesky") -> tuple[Array, Array, Array, Array]:
-    """Sigma points of ``belief`` (optionally jointly with an independent noise input).
-
-    Returns
-    -------
-    X : (m, nx) points on the belief's space.
-    W : (m, nw) noise points (``nw = 0`` without noise).
-    dX : (m, d) tangent deviations :math:`S\\xi_i` of the state part.
-    wm : (m,) mean weights.
-    """
-    S = factor_of(belief, method)
-    if noise is not None:
-        S = block_diag2(S, noise.sqrt)
-    xi, wm = rule.points(S.shape[0])
-    delta = xi @ S.T
-    d = belief.dim
-    X = belief.space.retract(belief.mean, delta[:, :d])
-    return X, delta[:, d:], delta[:, :d], wm
-
-
-def _dense(fac: Factor, noise_cov: Array | None) -> Array:
-    """``C Cᵀ + sign·c0 c0ᵀ (+ noise_cov)``, symmetrised."""
-    P = fac.C @ fac.C.T
-    if noise_cov is not None:
-        P = P + noise_cov
-    if fac.c0 is not None:
-        P = P + fac.sign * np.outer(fac.c0, fac.c0)
-    return 0.5 * (P + P.T)
-
-
-def factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
-    """Square factor of ``[C, extra][C, extra]ᵀ + sign·c0 c0ᵀ`` by QR (``sqrt``: ``tria``
-    then a signed rank-one Cholesky update) or SVD (``svd``)."""
-    blocks = [fac.C] if extra is None else [fac.C, extra]
-    if form == "svd":
-        if fac.c0 is not None:
-            if fac.sign < 0:
-                raise ValueError("the SVD form needs non-negative weights")
-            blocks.append(fac.c0[:, None])
-        return svd_factor(np.hstack(blocks))
-    S = tria(np.hstack(blocks))
-    if fac.c0 is not None:
-        S = chol_update(S, fac.c0, fac.sign)
-    return S
 
 
 def _covariance(form: Form, fac: Factor, noise: Noise | None) -> Array:
     """The new belief's covariance (dense form) or factor (other forms)."""
     if form == "dense":
-        return _dense(fac, None if noise is None else noise.cov)
+        return dense_cov(fac, None if noise is None else noise.cov)
     return factorise(form, fac, None if noise is None else noise.sqrt)
 
 
@@ -246,8 +172,6 @@ class SigmaPointFilter:
         """Block-local steps on a state laid out as ``layout`` (``local`` mode,
         :mod:`estimators.partitioned`); the square-root form only, otherwise raises
         :class:`~estimators.partitioned.NoPartitionedModeError`."""
-        from .partitioned import SqrtSigmaBlockSteps, refuse_partitioned
-
         if not self.supports_partitioned:
             refuse_partitioned(self.name)
         return SqrtSigmaBlockSteps(self, layout)

@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from slam.kinds import KINDS
+from slam.registry import KINDS
 from slam.results import CampaignResult, RunOutcome
 
 

@@ -37,7 +37,7 @@ def main() -> None:
 @main.command("worlds")
 def worlds_cmd() -> None:
     """List the bundled worlds."""
-    from slam.kinds import list_worlds
+    from slam.registry import list_worlds
 
     rows = list_worlds()
     width = max(len(n) for n, _, _ in rows)
@@ -112,7 +112,7 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 
 def _open_world(name: str, mode: str | None):
     """Load WORLD and apply ``--mode``; -> (world, kind)."""
-    from slam.kinds import get_kind, load_world
+    from slam.registry import get_kind, load_world
     from worlds import WorldError
 
     try:
@@ -133,8 +133,8 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
               seed: int | None, workers: int | None, scheduler: str | None,
               mode: str | None):
     """``--log FILE``: the log as a one-run world of the recorded-log kind."""
-    from slam.kinds import log_kind
     from slam.kinds.recorded.log import LogFormatError
+    from slam.registry import log_kind
 
     for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
                        (workers, "--workers"), (scheduler, "--scheduler")):

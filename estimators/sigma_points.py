@@ -1,0 +1,90 @@
+r"""Sigma points and covariance factors: drawing a rule's points from a belief (with any
+non-additive noise appended) and turning a rule's factor into the dense, square-root or
+SVD form.  Shared by the sigma-point filters' own steps and their partitioned steps."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from .linalg import (
+    Array,
+    NotPositiveDefiniteError,
+    block_diag2,
+    chol,
+    chol_update,
+    svd_factor,
+    tria,
+)
+from .models import Belief, Noise, SqrtGaussian
+from .rules import Factor, PointRule
+
+Form = Literal["dense", "sqrt", "svd"]
+
+
+SqrtMethod = Literal["cholesky", "eigh"]
+
+
+def factor_of(belief: Belief, method: SqrtMethod = "cholesky") -> Array:
+    r"""A square factor of the belief's covariance.
+
+    A square-root belief gives its stored factor.  A dense belief is factored by
+    Cholesky, or by the eigen-decomposition :math:`P = U\Lambda U^\top \to U\Lambda^{1/2}`
+    (``"eigh"``: the points the SVD-factored filter draws, up to order and sign).
+    """
+    if isinstance(belief, SqrtGaussian):
+        return belief.sqrt
+    if method == "cholesky":
+        return chol(belief.cov)
+    lam, U = np.linalg.eigh(belief.cov)
+    if not lam.min() > 0.0:
+        raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} <= 0")
+    return U * np.sqrt(lam)
+
+
+def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,
+         method: SqrtMethod = "cholesky") -> tuple[Array, Array, Array, Array]:
+    """Sigma points of ``belief`` (optionally jointly with an independent noise input).
+
+    Returns
+    -------
+    X : (m, nx) points on the belief's space.
+    W : (m, nw) noise points (``nw = 0`` without noise).
+    dX : (m, d) tangent deviations :math:`S\\xi_i` of the state part.
+    wm : (m,) mean weights.
+    """
+    S = factor_of(belief, method)
+    if noise is not None:
+        S = block_diag2(S, noise.sqrt)
+    xi, wm = rule.points(S.shape[0])
+    delta = xi @ S.T
+    d = belief.dim
+    X = belief.space.retract(belief.mean, delta[:, :d])
+    return X, delta[:, d:], delta[:, :d], wm
+
+
+def dense_cov(fac: Factor, noise_cov: Array | None) -> Array:
+    """``C Cᵀ + sign·c0 c0ᵀ (+ noise_cov)``, symmetrised."""
+    P = fac.C @ fac.C.T
+    if noise_cov is not None:
+        P = P + noise_cov
+    if fac.c0 is not None:
+        P = P + fac.sign * np.outer(fac.c0, fac.c0)
+    return 0.5 * (P + P.T)
+
+
+def factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
+    """Square factor of ``[C, extra][C, extra]ᵀ + sign·c0 c0ᵀ`` by QR (``sqrt``: ``tria``
+    then a signed rank-one Cholesky update) or SVD (``svd``)."""
+    blocks = [fac.C] if extra is None else [fac.C, extra]
+    if form == "svd":
+        if fac.c0 is not None:
+            if fac.sign < 0:
+                raise ValueError("the SVD form needs non-negative weights")
+            blocks.append(fac.c0[:, None])
+        return svd_factor(np.hstack(blocks))
+    S = tria(np.hstack(blocks))
+    if fac.c0 is not None:
+        S = chol_update(S, fac.c0, fac.sign)
+    return S
