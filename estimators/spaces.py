@@ -172,13 +172,6 @@ class Product:
             [p.mean(points[..., a], weights) for p, a in zip(self.parts, self._amb)], axis=-1)
 
 
-def is_euclidean(space: Space) -> bool:
-    """True when ``space`` is plain :math:`\\mathbb{R}^n` (fast paths may skip the charts)."""
-    if isinstance(space, Euclidean):
-        return True
-    return isinstance(space, Product) and all(isinstance(p, Euclidean) for p in space.parts)
-
-
 @dataclass(frozen=True)
 class Wrapped(_Flat):
     """:math:`\\mathbb{R}^n` whose coordinates listed in ``angles`` are wrapped angles.

@@ -155,12 +155,6 @@ class Terrain:
 
     # ------------------------------------------------------------------ queries
 
-    @property
-    def bounds_xy(self) -> tuple[float, float, float, float]:
-        """``(xmin, xmax, ymin, ymax)`` of the mesh footprint."""
-        lo, hi = self._lo.min(axis=0), self._hi.max(axis=0)
-        return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
-
     def _bucket_grid(self) -> tuple:
         lo, hi = self._lo[:, :2], self._hi[:, :2]
         x0, y0 = lo.min(axis=0)

@@ -1,25 +1,35 @@
 """Validation machinery for world files: typed keys with allowed ranges.
 
-A schema is a ``dict`` from key name to a :class:`Field` (or a nested :class:`Section`).
+A schema is a ``dict`` from key name to a :class:`Field` (or a nested :class:`Section`):
+the declarative table of a world kind's sections, keys, types, ranges and units.
 :func:`read_table` checks a parsed TOML table against it - unknown keys, missing
 required keys, wrong types, values outside their allowed range - and returns the
 converted values (degrees become radians here, for keys whose name says ``_deg``).
 Every failure is a :class:`WorldError` that names the file, the dotted key and the rule.
+
+The same table says where each value goes: :func:`build` fills a dataclass from the
+converted values, each key under its field's name (``Field.to("max_steer_rad")``; a
+:class:`Section` names its dataclass with ``into``).  Checks across keys are
+:class:`Rule` rows (:func:`check_rules`) or a kind's own small functions.
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import json
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
 NO_VALUE: Any = object()
 REQUIRED: Any = object()
+AS_KEY: Any = object()
+"""The dataclass field a key fills by default: the one named like the key."""
 
 
 def format_value(value: Any, limit: int = 60) -> str:
@@ -125,13 +135,22 @@ def _is_number(v: Any) -> bool:
 
 
 class Field(ABC):
-    """One key: a parser from its TOML value, and a default (or :data:`REQUIRED`)."""
+    """One key: a parser from its TOML value, a default (or :data:`REQUIRED`), and the
+    dataclass field it fills (``attr``: :data:`AS_KEY`, another name, or ``None`` for a
+    key that a kind's cross-key code turns into a field)."""
 
     default: Any = REQUIRED
+    attr: str | None = AS_KEY
 
     @abstractmethod
     def parse(self, value: Any, where: Where) -> Any:
         """The checked, converted value; raises :class:`WorldError` naming the key."""
+
+    def to(self, attr: str | None) -> Self:
+        """This field, filling the dataclass field ``attr`` (``None``: none) in :func:`build`."""
+        out = copy.copy(self)
+        out.attr = attr
+        return out
 
 
 class Number(Field):
@@ -221,10 +240,11 @@ class StringList(Field):
 
 
 class Vector(Field):
-    """A fixed-length list of numbers, each in ``interval``."""
+    """A fixed-length list of numbers, each in ``interval`` and multiplied by ``scale``."""
 
-    def __init__(self, length: int, interval: Interval, default: Any = REQUIRED) -> None:
-        self.length, self.interval, self.default = length, interval, default
+    def __init__(self, length: int, interval: Interval, default: Any = REQUIRED,
+                 scale: float = 1.0) -> None:
+        self.length, self.interval, self.default, self.scale = length, interval, default, scale
 
     def parse(self, value: Any, where: Where) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != self.length:
@@ -234,7 +254,7 @@ class Vector(Field):
                 raise where.item(i).error("must be a number", v)
             if v not in self.interval:
                 raise where.item(i).error(f"must be in {self.interval}", v)
-        return tuple(float(v) for v in value)
+        return tuple(float(v) * self.scale for v in value)
 
 
 class Points(Field):
@@ -278,10 +298,30 @@ class FreeForm(Field):
 
 @dataclass(frozen=True)
 class Section:
-    """A sub-table with its own schema; an optional section may be left out entirely."""
+    """A sub-table with its own schema; an optional section may be left out entirely.
+
+    ``into``: the dataclass :func:`build` makes of it; ``attr`` as for :class:`Field`.
+    """
 
     schema: Mapping[str, Field | Section]
     required: bool = True
+    into: type | None = None
+    attr: str | None = AS_KEY
+
+    def to(self, attr: str | None) -> Section:
+        """This section, filling the dataclass field ``attr`` in :func:`build`."""
+        return dataclasses.replace(self, attr=attr)
+
+
+def header(kind: str) -> dict[str, Field]:
+    """The keys every world file starts with: ``kind``, a one-line ``description``, the
+    Monte Carlo ``runs`` and the campaign ``seed``."""
+    return {
+        "kind": String(choices=(kind,)),
+        "description": String(one_line=True, max_len=200),
+        "runs": Integer(Interval(1, 100_000)),
+        "seed": Integer(Interval(0, 2**63 - 1), default=0),
+    }
 
 
 def read_table(data: Any, schema: Mapping[str, Field | Section], where: Where) -> dict[str, Any]:
@@ -318,3 +358,63 @@ def _default(spec: Field, default: Any, where: Where) -> Any:
     if default is None:
         return None
     return spec.parse(default, where)
+
+
+def build(section: Section, values: Mapping[str, Any], **derived: Any) -> Any:
+    """``section.into(...)`` from the values :func:`read_table` returned for it.
+
+    Each key's value fills the field its spec names (:attr:`Field.attr`); a sub-section
+    is built the same way; ``derived`` gives the fields that the kind computes (a key
+    whose field is among them is passed over).
+    """
+    if section.into is None:
+        raise TypeError("a section built into a dataclass needs into=")
+    fields: dict[str, Any] = {}
+    for key, spec in section.schema.items():
+        name = key if spec.attr is AS_KEY else spec.attr
+        if name is None or name in derived:
+            continue
+        value = values[key]
+        fields[name] = build(spec, value) if isinstance(spec, Section) else value
+    return section.into(**fields, **derived)
+
+
+def value_at(values: Mapping[str, Any], key: str) -> Any:
+    """The value at the dotted ``key`` of nested checked tables."""
+    for part in key.split("."):
+        values = values[part]
+    return values
+
+
+def is_whole(x: float, tol: float = 1e-9) -> bool:
+    """``x`` is a whole number to a relative ``tol``."""
+    return abs(x - round(x)) <= tol * max(1.0, abs(x))
+
+
+def whole_times(value: float, other: float) -> bool:
+    """``value`` goes into ``other`` a whole number (>= 1) of times."""
+    ratio = other / value
+    return is_whole(ratio) and round(ratio) >= 1
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A check across keys: ``ok(value at key, value at other)`` must hold, else the
+    error at ``key`` reads ``message`` formatted with ``other`` (the other key's last
+    name) and ``limit`` (its value), or ``message(limit)``."""
+
+    key: str
+    other: str
+    ok: Callable[[Any, Any], bool]
+    message: str | Callable[[Any], str]
+
+
+def check_rules(rules: Sequence[Rule], values: Mapping[str, Any], where: Where) -> None:
+    """Raise the :class:`WorldError` of the first rule that ``values`` break."""
+    for rule in rules:
+        value, limit = value_at(values, rule.key), value_at(values, rule.other)
+        if not rule.ok(value, limit):
+            other = rule.other.rpartition(".")[2]
+            text = (rule.message(limit) if callable(rule.message)
+                    else rule.message.format(other=other, limit=limit))
+            raise where.child(rule.key).error(text, value)

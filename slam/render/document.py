@@ -11,8 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from slam.render.tables import html_table, html_text, markdown_table
+from slam.render.tables import html_table, html_text, markdown_table, paper_rows
 from slam.results import CampaignResult
+
+Figure = Callable[[CampaignResult, Path], None]
+"""Draws one figure of a campaign into a file."""
 
 
 def _title(summary: dict[str, Any], world: Any, what: str) -> tuple[str, str, str]:
@@ -21,7 +24,6 @@ def _title(summary: dict[str, Any], world: Any, what: str) -> tuple[str, str, st
     facts = (f"{summary.get('runs', '?')} Monte Carlo runs, seed {summary.get('seed', '?')}, "
              f"world kind `{summary.get('kind', getattr(world, 'kind', '?'))}`")
     return f"{name}: {what}", description, facts
-
 
 
 @dataclass(frozen=True)
@@ -42,10 +44,27 @@ class KindReport:
 
     what: str
     sections: Callable[[dict[str, Any]], list[Section]]
-    figures: Callable[[], dict[str, tuple[Callable[[CampaignResult, Path], None], str]]]
+    figures: Callable[[], dict[str, tuple[Figure, str]]]
     text_table: Callable[[dict[str, Any]], str]
     extra_files: Callable[[CampaignResult, Path], list[str]] = lambda result, out: []
 
+
+def captioned(writers: dict[str, Figure], captions: dict[str, str]
+              ) -> dict[str, tuple[Figure, str]]:
+    """File name -> (function drawing it, caption), for :attr:`KindReport.figures`."""
+    return {name: (fn, captions[name]) for name, fn in writers.items()}
+
+
+def paper_ranges_section(summary: dict[str, Any], title: str, ours: str) -> Section:
+    """The paper's quoted error ranges next to ours (:func:`~slam.render.tables.paper_rows`),
+    or a note that the world quotes none; ``ours`` says how our ranges were taken."""
+    header, rows = paper_rows(summary)
+    if not rows:
+        return Section(title, text="The world file quotes no error ranges from a paper.")
+    source = (summary.get("paper") or {}).get("source")
+    note = ("The paper's ranges were read off its figures, so they are approximate"
+            + (f" (source: {source})." if source else ".") + f" {ours}")
+    return Section(title, header, rows, note)
 
 
 def report_markdown(result: CampaignResult, kr: KindReport, figures: Sequence[str]) -> str:
@@ -85,7 +104,6 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 """
 
 
-
 def report_html(result: CampaignResult, kr: KindReport, figures: dict[str, bytes]) -> str:
     """``report.html``: the report with figures embedded as base64 PNG data URIs."""
     s = result.summary
@@ -113,5 +131,3 @@ def report_html(result: CampaignResult, kr: KindReport, figures: dict[str, bytes
                     "</figure>"]
     out += ["</body>", "</html>", ""]
     return "\n".join(out)
-
-

@@ -14,7 +14,10 @@ import shutil
 import stat
 import tempfile
 import uuid
+from collections.abc import Iterable
 from pathlib import Path
+
+import numpy as np
 
 from slam.render.document import KindReport, report_html, report_markdown
 from slam.render.tables import summary_json
@@ -37,6 +40,22 @@ def render(result: CampaignResult, kr: KindReport, out_dir: Path, *, plots: bool
     (out_dir / "report.html").write_text(report_html(result, kr, figures), encoding="utf-8")
     extra = kr.extra_files(result, out_dir)
     return [SUMMARY, "report.md", "report.html", *figures, *extra]
+
+
+def tum_text(rows: np.ndarray) -> str:
+    """TUM trajectory lines from rows ``[t, x, y, z, qx, qy, qz, qw]``: the time to the
+    microsecond, the rest to 9 significant digits."""
+    return "".join(" ".join(f"{v:.9g}" if j else f"{v:.6f}" for j, v in enumerate(r)) + "\n"
+                   for r in rows)
+
+
+def write_tum(out_dir: Path, trajectories: Iterable[tuple[str, str]]) -> list[str]:
+    """Write each ``(name, TUM text)`` to ``<name>.tum`` in ``out_dir``; the file names."""
+    written = []
+    for name, text in trajectories:
+        (out_dir / f"{name}.tum").write_text(text, encoding="utf-8")
+        written.append(f"{name}.tum")
+    return written
 
 
 def _default_dir_mode() -> int:

@@ -1,25 +1,32 @@
 """Figure helpers shared by the kinds' reports: the Agg backend, resolution, colours,
-saving, run 0's tracks, covariance ellipses."""
+saving, run 0's tracks, covariance ellipses, run averages, and the error-grid figure
+(one row per filter, one column per error component)."""
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 
 import matplotlib
 import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
-from matplotlib.patches import Ellipse  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Ellipse, Patch  # noqa: E402
 
-from slam.results import Array, CampaignResult  # noqa: E402
+from slam.results import REFERENCE, Array, CampaignResult  # noqa: E402
 
 DPI = 110
 FILTER_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:brown",
                   "tab:pink", "tab:olive", "tab:cyan", "tab:purple", "tab:gray")
+EIGHT_COLOURS = FILTER_COLOURS[:8]
+"""The palette the drone and attitude reports cycle through."""
 REFERENCE_COLOUR = "#7a3b8f"
+BASELINE_COLOUR = "0.55"
 
 
 def filter_names(result: CampaignResult) -> list[str]:
@@ -27,9 +34,25 @@ def filter_names(result: CampaignResult) -> list[str]:
     return list((result.summary.get("filters") or {}).keys())
 
 
-def filter_colours(names) -> dict[str, str]:
-    """One colour per filter, in the tab10 order."""
-    return {n: FILTER_COLOURS[i % len(FILTER_COLOURS)] for i, n in enumerate(names)}
+def filter_colours(names: Iterable[str], palette: Sequence[str] = FILTER_COLOURS
+                   ) -> dict[str, str]:
+    """One colour per filter, in the palette's (tab10) order."""
+    return {n: palette[i % len(palette)] for i, n in enumerate(names)}
+
+
+def estimator_colours(names: Iterable[str], palette: Sequence[str] = FILTER_COLOURS,
+                      baselines: Sequence[str] = ()) -> dict[str, str]:
+    """A palette colour per filter in ``names`` (the smoother left out), then the
+    smoother's and the ``baselines``' fixed colours."""
+    out = filter_colours([n for n in names if n != REFERENCE], palette)
+    out[REFERENCE] = REFERENCE_COLOUR
+    out.update(dict.fromkeys(baselines, BASELINE_COLOUR))
+    return out
+
+
+def titled(result: CampaignResult, what: str) -> str:
+    """``"<world>: <what>"``, a figure's title."""
+    return f"{result.summary.get('world', '')}: {what}"
 
 
 def run0(result: CampaignResult):
@@ -77,3 +100,118 @@ def envelope(scores: list, values: Callable) -> tuple[Array, Array] | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # epochs with no value in any run
         return np.nanmin(a, axis=0), np.nanmax(a, axis=0)
+
+
+def run_average(series: list[Array], dof: float) -> Array:
+    """Per-epoch mean over runs of ``series`` divided by ``dof``; NaN where no run has a
+    positive value (a log axis drops them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # epochs with no value in any run
+        mean = np.nanmean(np.stack(series), axis=0) / dof
+    mean[~(mean > 0.0)] = np.nan
+    return mean
+
+
+# --------------------------------------------------------------------------- error grid
+
+@dataclass(frozen=True)
+class ErrorPanel:
+    """What one panel of :func:`error_grid` shows, in the plotted unit: the Monte Carlo
+    envelope, run 0's ``(error, σ)`` (or a ``note`` where run 0 has none), the
+    smoother's run-0 error and the paper's range."""
+
+    env: tuple[Array, Array] | None
+    run0: tuple[Array, Array] | None = None
+    note: str = ""
+    reference: Array | None = None
+    paper: Sequence[float] | None = None
+
+    def extent(self) -> list[float]:
+        """The magnitudes the panel's y range must hold (not a diverged run's blow-up)."""
+        out = [] if self.env is None else [float(np.nanmax(np.abs(self.env)))]
+        return out + ([] if self.paper is None else [abs(v) for v in self.paper])
+
+    def draw(self, ax: plt.Axes, t: Array, colour: str) -> None:
+        if self.env is not None:
+            ax.fill_between(t, self.env[0], self.env[1], color=colour, alpha=0.15, lw=0)
+        if self.run0 is not None:
+            err, sd = self.run0
+            ax.plot(t, 2 * sd, color=colour, lw=0.7, ls="-", alpha=0.55)
+            ax.plot(t, -2 * sd, color=colour, lw=0.7, ls="-", alpha=0.55)
+            ax.plot(t, err, color=colour, lw=1.0)
+        elif self.note:
+            ax.text(0.01, 0.95, self.note, transform=ax.transAxes, va="top", fontsize=8,
+                    color=colour)
+        if self.reference is not None:
+            ax.plot(t, self.reference, color=REFERENCE_COLOUR, lw=0.7, alpha=0.8)
+        for v in self.paper or ():
+            ax.axhline(v, color=colour, ls="--", lw=1.2)
+        ax.axhline(0.0, color="0.6", lw=0.5)
+        ax.grid(True, lw=0.3, alpha=0.5)
+
+
+LEGEND = {
+    "error": lambda: Line2D([], [], color="0.2", lw=1.0, label="run 0 error"),
+    "sigma": lambda: Line2D([], [], color="0.2", lw=0.7, alpha=0.55, label="run 0 ±2σ"),
+    "envelope": lambda: Patch(fc="0.2", alpha=0.15, label="Monte Carlo envelope (min/max)"),
+    "paper": lambda: Line2D([], [], color="0.2", ls="--", lw=1.2, label="paper's range"),
+    "reference": lambda: Line2D([], [], color=REFERENCE_COLOUR, lw=0.7,
+                                label="gtsam run 0 error"),
+}
+"""The error grid's legend entries by name."""
+
+
+@dataclass(frozen=True)
+class ErrorGrid:
+    """The layout of an error grid: its columns, size, y axes, labels, legend, title.
+
+    ``ylabel`` is formatted with ``name`` (the row's filter) and ``axis`` (the column).
+    With ``sharey`` one y range holds every panel, else each column gets its own.
+    """
+
+    axes: Sequence[str]
+    width: float
+    top: float
+    ylabel: str
+    legend: Sequence[str]
+    title: str
+    sharey: bool = False
+
+
+def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
+               panel: Callable[[str, int], ErrorPanel], colours: dict[str, str]) -> None:
+    """One row per filter, one column per ``grid.axes`` entry: ``panel(name, column)``."""
+    names = filter_names(result)
+    t = run0(result).times
+    fig, axes = plt.subplots(len(names), len(grid.axes),
+                             figsize=(grid.width, grid.top + 1.9 * len(names)), sharex=True,
+                             sharey=grid.sharey, squeeze=False, layout="constrained")
+    lim = np.zeros(len(grid.axes))
+    for row, name in enumerate(names):
+        for col, axis in enumerate(grid.axes):
+            ax, p = axes[row, col], panel(name, col)
+            p.draw(ax, t, colours[name])
+            lim[col] = max([lim[col], *p.extent()])
+            ax.set_ylabel(grid.ylabel.format(name=name, axis=axis), fontsize=9)
+            if row == 0:
+                ax.set_title(f"{axis} error", fontsize=10)
+            if row == len(names) - 1:
+                ax.set_xlabel("time (s)")
+    _set_limits(axes, lim, grid.sharey)
+    legend = [LEGEND[k]() for k in grid.legend]
+    fig.legend(handles=legend, loc="outside lower center", fontsize=8, ncols=len(legend),
+               frameon=False)
+    fig.suptitle(titled(result, grid.title), fontsize=11)
+    save(fig, path)
+
+
+def _set_limits(axes: np.ndarray, lim: Array, shared: bool) -> None:
+    """Symmetric y limits 15 % beyond ``lim`` (one per column, or their largest)."""
+    if shared:
+        if lim.max() > 0.0:
+            axes[0, 0].set_ylim(-1.15 * lim.max(), 1.15 * lim.max())
+        return
+    for col in range(axes.shape[1]):
+        if lim[col] > 0:
+            for row in range(axes.shape[0]):
+                axes[row, col].set_ylim(-1.15 * lim[col], 1.15 * lim[col])

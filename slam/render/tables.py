@@ -7,7 +7,8 @@ import html
 import json
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -44,6 +45,7 @@ def summary_json(summary: dict[str, Any]) -> str:
     return json.dumps(jsonable(summary), indent=2, sort_keys=False, allow_nan=False,
                       ensure_ascii=False) + "\n"
 
+
 def num(v: Any, fmt: str, scale: float = 1.0) -> str:
     if (v is None or isinstance(v, bool) or not isinstance(v, int | float | np.number)
             or not math.isfinite(v)):
@@ -58,13 +60,21 @@ def interval(pair: Any, fmt: str = "+.2f") -> str:
     return MISSING if MISSING in (lo, hi) else f"[{lo}, {hi}]"
 
 
-def anees_cell(entry: dict[str, Any]) -> str:
-    value = num(entry.get("anees"), ".2f")
+def anees_cell(entry: dict[str, Any], key: str = "anees", band: str = "anees_bounds_95"
+               ) -> str:
+    """``"1.02 [0.21, 2.41]"``: the ANEES at ``key`` and its 95 % band at ``band``."""
+    value = num(entry.get(key), ".2f")
     if value == MISSING:
         return MISSING
-    band = interval(entry.get("anees_bounds_95"), ".2f")
-    return value if band == MISSING else f"{value} {band}"
+    bounds = interval(entry.get(band), ".2f")
+    return value if bounds == MISSING else f"{value} {bounds}"
 
+
+def diverged_cell(entry: dict[str, Any]) -> str:
+    """``"2/50"``: runs diverged out of the runs made (``"2"`` if that is unknown)."""
+    scored, diverged = entry.get("runs_scored"), entry.get("diverged_runs")
+    runs = "" if scored is None or diverged is None else f"/{scored + diverged}"
+    return MISSING if diverged is None else f"{diverged}{runs}"
 
 
 def estimator_entries(summary: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
@@ -72,6 +82,72 @@ def estimator_entries(summary: dict[str, Any]) -> list[tuple[str, dict[str, Any]
     baselines (odometry, IMU only), then the reference smoother."""
     return [(name, entry) for group in ("filters", "baselines", "reference")
             for name, entry in (summary.get(group) or {}).items()]
+
+
+Cell = Callable[[str, dict[str, Any]], str]
+"""A table cell from an estimator's name and summary entry."""
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a results table: its header and how to fill a cell."""
+
+    header: str
+    cell: Cell
+
+
+def value(key: str, fmt: str, scale: float = 1.0) -> Cell:
+    """The cell of the number at ``key``, times ``scale``, formatted with ``fmt``."""
+    return lambda name, entry: num(entry.get(key), fmt, scale)
+
+
+def error_range(axis: str) -> Column:
+    """The extreme position errors on ``axis`` (m)."""
+    return Column(f"{axis} range (m)",
+                  lambda name, entry: interval((entry.get("pos_err_range_m") or {}).get(axis)))
+
+
+def anees_column(header: str, key: str = "anees", band: str = "anees_bounds_95") -> Column:
+    """The ANEES at ``key`` with its 95 % band (:func:`anees_cell`)."""
+    return Column(header, lambda name, entry: anees_cell(entry, key, band))
+
+
+ESTIMATOR = Column("estimator", lambda name, entry: name)
+POS_RMSE = Column("pos RMSE (m)", value("pos_rmse_m", ".3f"))
+LANDMARK_RMSE = Column("landmark RMSE (m)", value("landmark_rmse_m", ".3f"))
+NIS = Column("NIS/dof", value("nis_mean", ".2f"))
+DIVERGED = Column("diverged runs", lambda name, entry: diverged_cell(entry))
+
+
+@dataclass(frozen=True)
+class Table:
+    """A results table: a row per estimator (in :func:`estimator_entries` order)."""
+
+    columns: tuple[Column, ...]
+
+    @property
+    def header(self) -> tuple[str, ...]:
+        return tuple(c.header for c in self.columns)
+
+    def rows(self, summary: dict[str, Any]) -> list[list[str]]:
+        return [[c.cell(name, entry) for c in self.columns]
+                for name, entry in estimator_entries(summary)]
+
+    def markdown(self, summary: dict[str, Any]) -> str:
+        return markdown_table(self.header, self.rows(summary))
+
+    def plain(self, summary: dict[str, Any]) -> str:
+        """Aligned plain text (for the terminal)."""
+        return plain_table(self.header, self.rows(summary))
+
+
+def slam_table(axes: Iterable[str], orientation: Column, anees: Iterable[Column],
+               time: Column) -> Table:
+    """The results table of a SLAM kind: the estimator, its position RMSE and error
+    range per axis, ``orientation``, landmark RMSE, ``anees``, NIS/dof, ``time`` per step
+    and the diverged runs."""
+    return Table((ESTIMATOR, POS_RMSE, *map(error_range, axes), orientation, LANDMARK_RMSE,
+                  *anees, NIS, time, DIVERGED))
 
 
 def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
@@ -107,8 +183,6 @@ def html_text(text: str) -> str:
     """Escape text, turning Markdown `code` spans into <code>."""
     parts = html.escape(text).split("`")
     return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
-
-
 
 
 def paper_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:

@@ -10,8 +10,8 @@ Figure functions take a :class:`~slam.results.CampaignResult` from
 :func:`attitude_tables` renders the summary dict alone as Markdown: our errors,
 consistency and timing, then the paper's Table 2 next to ours.  :func:`figure_writers`
 maps file names to the figure functions; :data:`REPORT` is the
-:class:`~slam.report.KindReport` that ``slam.report`` uses for ``kind = "attitude"``
-(sections, captioned figures, terminal table).
+:class:`~slam.render.document.KindReport` of ``kind = "attitude"`` (sections, captioned
+figures, terminal table).
 """
 
 from __future__ import annotations
@@ -20,21 +20,14 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
+from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H
+from slam.render.document import KindReport, Section, captioned
+from slam.render.plotting import EIGHT_COLOURS, estimator_colours, plt, run0, save, titled
+from slam.render.tables import MISSING, estimator_entries, markdown_table, num, plain_table
+from slam.results import REFERENCE, CampaignResult
 
-from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H  # noqa: E402
-from slam.render.document import KindReport, Section  # noqa: E402
-from slam.render.plotting import run0, save  # noqa: E402
-from slam.render.tables import MISSING, estimator_entries, markdown_table, num  # noqa: E402
-from slam.results import REFERENCE, CampaignResult  # noqa: E402
-
-_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:brown", "tab:pink",
-            "tab:olive", "tab:cyan")
-_REFERENCE_COLOUR = "#7a3b8f"
 _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
 
@@ -168,20 +161,13 @@ def text_table(summary: dict[str, Any]) -> str:
     header = ["estimator", "roll", "pitch", "yaw", "roll ss", "pitch ss", "yaw ss",
               "bias RMSE", "ANEES [band]", "ms/cycle", "diverged"]
     rows = [[r[0], *r[1:7], r[10], r[11], r[13], r[14]] for r in result_rows(summary)]
-    widths = [max(len(str(c)) for c in col) for col in zip(header, *rows)]
-    lines = ["  ".join(str(c).ljust(w) if i == 0 else str(c).rjust(w)
-                       for i, (c, w) in enumerate(zip(r, widths))) for r in [header, *rows]]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines) + "\n(attitude errors: mean absolute, arcsec, Z-X-Y Euler)"
+    return plain_table(header, rows) + "\n(attitude errors: mean absolute, arcsec, Z-X-Y Euler)"
 
 
 # --------------------------------------------------------------------------- figures
 
 def _colours(names: Sequence[str]) -> dict[str, str]:
-    out = {n: _COLOURS[i % len(_COLOURS)] for i, n in enumerate(n for n in names
-                                                                  if n != REFERENCE)}
-    out[REFERENCE] = _REFERENCE_COLOUR
-    return out
+    return estimator_colours(names, EIGHT_COLOURS)
 
 
 def _estimators(result: CampaignResult) -> list[str]:
@@ -227,8 +213,8 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
         axes[0, 0].set_ylim(-1.15 * lim, 1.15 * lim)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=8, frameon=False)
-    fig.suptitle(f"{result.summary.get('world', '')}: run 0 attitude errors "
-                 "(Z-X-Y Euler, arcsec) and each estimator's ±3σ", fontsize=10)
+    fig.suptitle(titled(result, "run 0 attitude errors (Z-X-Y Euler, arcsec) and each "
+                                "estimator's ±3σ"), fontsize=10)
     save(fig, path)
 
 
@@ -265,9 +251,9 @@ def plot_bias(result: CampaignResult, path: Path) -> None:
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8,
                frameon=False)
-    fig.suptitle(f"{result.summary.get('world', '')}: run 0 gyro-bias estimates vs truth "
-                 "(the first seconds' transient is off the scale;\n"
-                 "coinciding filters are drawn with decreasing line widths)", fontsize=10)
+    fig.suptitle(titled(result, "run 0 gyro-bias estimates vs truth (the first seconds' "
+                                "transient is off the scale;\ncoinciding filters are drawn "
+                                "with decreasing line widths)"), fontsize=10)
     save(fig, path)
 
 
@@ -301,9 +287,9 @@ def attitude_sections(summary: dict[str, Any]) -> list[Section]:
 
 
 def attitude_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
-    return {name: (fn, FIGURE_CAPTIONS[name]) for name, fn in figure_writers().items()}
+    return captioned(figure_writers(), FIGURE_CAPTIONS)
 
 
 REPORT = KindReport("star-sensor attitude campaign", attitude_sections, attitude_figures,
                     text_table)
-"""What :func:`slam.report.kind_report` uses for ``kind = "attitude"``."""
+"""The attitude kind's report."""

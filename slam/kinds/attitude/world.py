@@ -28,28 +28,15 @@ see :mod:`slam.kinds.attitude.simulate` for the motion.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from typing import Any
 
 import numpy as np
 
+import worlds.schema as ws
 from estimators.filters import FILTER_NAMES  # the one list of filter names
-from worlds.schema import (
-    Boolean,
-    Field,
-    FreeForm,
-    Integer,
-    Interval,
-    Number,
-    Section,
-    String,
-    StringList,
-    Vector,
-    Where,
-    positive,
-    read_table,
-)
 
 KIND = "attitude"
 STAR_MODES = ("quaternion", "vectors")
@@ -72,13 +59,13 @@ DEFAULT_STAR_DIRECTIONS = (
 )
 
 
-class Directions(Field):
+class Directions(ws.Field):
     """A list of ``[x, y, z]`` non-zero direction vectors -> tuple of unit 3-tuples."""
 
     def __init__(self, default: Any = None) -> None:
         self.default = default
 
-    def parse(self, value: Any, where: Where) -> tuple[tuple[float, float, float], ...]:
+    def parse(self, value: Any, where: ws.Where) -> tuple[tuple[float, float, float], ...]:
         if not isinstance(value, list) or not value:
             raise where.error("must be a non-empty list of [x, y, z] directions", value)
         out = []
@@ -93,60 +80,6 @@ class Directions(Field):
                 raise where.item(i).error("must be a non-zero direction", v)
             out.append((v[0] / n, v[1] / n, v[2] / n))
         return tuple(out)
-
-
-SCHEMA = {
-    "kind": String(choices=(KIND,)),
-    "description": String(one_line=True, max_len=200),
-    "runs": Integer(Interval(1, 100_000)),
-    "seed": Integer(Interval(0, 2**63 - 1), default=0),
-    "duration_s": Number(positive(86_400.0)),
-    "satellite": Section(
-        {
-            "orbit_height_km": Number(positive(100_000.0)),
-            "inclination_deg": Number(Interval(0.0, 180.0), scale=DEG),
-            "orbital_rate_rad_s": Number(Interval(0.0, 0.1)),
-            "initial_attitude_deg": Vector(3, Interval(-180.0, 180.0)),
-            "initial_rate_deg_s": Vector(3, Interval(-30.0, 30.0)),
-        }
-    ),
-    "gyro": Section(
-        {
-            "rate_hz": Number(positive(10_000.0)),
-            "bias_deg_h": Vector(3, Interval(-3600.0, 3600.0)),
-            "bias_rw_deg_h_sqrt_h": Number(Interval(0.0, 100.0), scale=DEG_H_SQRT_H),
-            "arw_deg_sqrt_h": Number(Interval(0.0, 100.0), scale=DEG_SQRT_H),
-        }
-    ),
-    "star_sensor": Section(
-        {
-            "rate_hz": Number(positive(1_000.0)),
-            "sigma_arcsec": Number(Interval(0.0, 36_000.0), scale=ARCSEC),
-            "mode": String(choices=STAR_MODES, default="quaternion"),
-            "n_stars": Integer(Interval(2, len(DEFAULT_STAR_DIRECTIONS)), default=2),
-            "directions": Directions(default=None),
-        }
-    ),
-    "filters": Section(
-        {
-            "names": StringList(FILTER_NAMES),
-            "initial_error_deg": Vector(3, Interval(-90.0, 90.0)),
-            "initial_attitude_var_deg2": Number(positive(1e4), scale=DEG**2),
-            "initial_bias_var_deg_h2": Number(positive(1e8), scale=DEG_H**2),
-            "arw_deg_sqrt_h": Number(positive(100.0), scale=DEG_SQRT_H),
-            "bias_rw_deg_h_sqrt_h": Number(positive(100.0), scale=DEG_H_SQRT_H),
-            "star_sigma_arcsec": Number(positive(36_000.0), scale=ARCSEC),
-        }
-    ),
-    "scoring": Section(
-        {
-            "steady_state_from_s": Number(Interval(0.0, 86_400.0)),
-            "report_convergence": Boolean(default=False),
-            "divergence_deg": Number(positive(180.0), default=1.0, scale=DEG),
-        }
-    ),
-    "paper": FreeForm(default=dict),
-}
 
 
 @dataclass(frozen=True)
@@ -260,88 +193,109 @@ class AttitudeWorld:
         return int(round(self.duration_s * self.star.rate_hz)) + 1
 
 
-def _is_whole(x: float, tol: float = 1e-9) -> bool:
-    return abs(x - round(x)) <= tol * max(1.0, abs(x))
+SCHEMA = {
+    **ws.header(KIND),
+    "duration_s": ws.Number(ws.positive(86_400.0)),
+    "satellite": ws.Section(
+        {
+            "orbit_height_km": ws.Number(ws.positive(100_000.0)),
+            "inclination_deg": ws.Number(ws.Interval(0.0, 180.0), scale=DEG).to("inclination_rad"),
+            "orbital_rate_rad_s": ws.Number(ws.Interval(0.0, 0.1)),
+            "initial_attitude_deg": ws.Vector(3, ws.Interval(-180.0, 180.0), scale=DEG)
+            .to("initial_attitude_rad"),
+            "initial_rate_deg_s": ws.Vector(3, ws.Interval(-30.0, 30.0), scale=DEG)
+            .to("initial_rate_rad_s"),
+        },
+        into=SatelliteSpec,
+    ),
+    "gyro": ws.Section(
+        {
+            "rate_hz": ws.Number(ws.positive(10_000.0)),
+            "bias_deg_h": ws.Vector(3, ws.Interval(-3600.0, 3600.0), scale=DEG_H).to("bias_rad_s"),
+            "bias_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_H_SQRT_H)
+            .to("bias_rw_rad_s_sqrt_s"),
+            "arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_SQRT_H)
+            .to("arw_rad_sqrt_s"),
+        },
+        into=GyroSpec,
+    ),
+    "star_sensor": ws.Section(
+        {
+            "rate_hz": ws.Number(ws.positive(1_000.0)),
+            "sigma_arcsec": ws.Number(ws.Interval(0.0, 36_000.0), scale=ARCSEC).to("sigma_rad"),
+            "mode": ws.String(choices=STAR_MODES, default="quaternion"),
+            "n_stars": ws.Integer(ws.Interval(2, len(DEFAULT_STAR_DIRECTIONS)), default=2),
+            "directions": Directions(default=None),
+        },
+        into=StarSensorSpec,
+    ).to("star"),
+    "filters": ws.Section(
+        {
+            "names": ws.StringList(FILTER_NAMES),
+            "initial_error_deg": ws.Vector(3, ws.Interval(-90.0, 90.0), scale=DEG)
+            .to("initial_error_rad"),
+            "initial_attitude_var_deg2": ws.Number(ws.positive(1e4), scale=DEG**2)
+            .to("initial_attitude_var_rad2"),
+            "initial_bias_var_deg_h2": ws.Number(ws.positive(1e8), scale=DEG_H**2)
+            .to("initial_bias_var_rad2_s2"),
+            "arw_deg_sqrt_h": ws.Number(ws.positive(100.0), scale=DEG_SQRT_H).to("arw_rad_sqrt_s"),
+            "bias_rw_deg_h_sqrt_h": ws.Number(ws.positive(100.0), scale=DEG_H_SQRT_H)
+            .to("bias_rw_rad_s_sqrt_s"),
+            "star_sigma_arcsec": ws.Number(ws.positive(36_000.0), scale=ARCSEC)
+            .to("star_sigma_rad"),
+        },
+        into=AttitudeFilterSpec,
+    ),
+    "scoring": ws.Section(
+        {
+            "steady_state_from_s": ws.Number(ws.Interval(0.0, 86_400.0)),
+            "report_convergence": ws.Boolean(default=False),
+            "divergence_deg": ws.Number(ws.positive(180.0), default=1.0, scale=DEG)
+            .to("divergence_rad"),
+        },
+        into=ScoringSpec,
+    ),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=AttitudeWorld)
 
 
-def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
-          ) -> AttitudeWorld:
-    """Validate a parsed ``attitude`` TOML document and build its :class:`AttitudeWorld`."""
-    root = Where(source, "")
-    v = read_table(data, SCHEMA, root)
-    sat, gyr, star, fil, sco = (v["satellite"], v["gyro"], v["star_sensor"], v["filters"],
-                                v["scoring"])
+def _whole_periods(duration: float, rate: float) -> bool:
+    """``duration`` is a whole number (>= 1) of periods at ``rate``."""
+    return ws.is_whole(duration * rate) and duration * rate >= 1
 
-    ratio = gyr["rate_hz"] / star["rate_hz"]
-    if not (_is_whole(ratio) and round(ratio) >= 1):
-        raise root.child("star_sensor.rate_hz").error(
-            f"must divide the gyro rate ({gyr['rate_hz']:g} Hz) a whole number of times",
-            star["rate_hz"])
-    if not (_is_whole(v["duration_s"] * star["rate_hz"]) and v["duration_s"] * star["rate_hz"]
-            >= 1):
-        raise root.child("duration_s").error(
-            f"must be a whole number (>= 1) of star-sensor periods ({1 / star['rate_hz']:g} s)",
-            v["duration_s"])
-    if sco["steady_state_from_s"] >= v["duration_s"]:
-        raise root.child("scoring.steady_state_from_s").error(
-            f"must be below duration_s ({v['duration_s']:g})", sco["steady_state_from_s"])
 
-    at_star = root.child("star_sensor")
+RULES = (
+    ws.Rule("star_sensor.rate_hz", "gyro.rate_hz", ws.whole_times,
+            "must divide the gyro rate ({limit:g} Hz) a whole number of times"),
+    ws.Rule("duration_s", "star_sensor.rate_hz", _whole_periods,
+            lambda rate: f"must be a whole number (>= 1) of star-sensor periods ({1 / rate:g} s)"),
+    ws.Rule("scoring.steady_state_from_s", "duration_s", operator.lt,
+            "must be below {other} ({limit:g})"),
+)
+"""Checks across keys, in the order they are made."""
+
+
+def _directions(star: dict[str, Any], at: ws.Where) -> tuple[tuple[float, float, float], ...]:
+    """The reference star directions: the file's, or the first ``n_stars`` defaults."""
     dirs = star["directions"]
     if dirs is None:
         raw = np.array(DEFAULT_STAR_DIRECTIONS[: star["n_stars"]], dtype=float)
         dirs = tuple(tuple(float(c) for c in r / np.linalg.norm(r)) for r in raw)
     elif len(dirs) != star["n_stars"]:
-        raise at_star.child("directions").error(
-            f"must list n_stars = {star['n_stars']} directions", [list(d) for d in dirs])
-    if star["mode"] == "vectors":
-        d = np.array(dirs)
-        if np.linalg.matrix_rank(d, tol=1e-3) < 2:
-            raise at_star.child("directions").error(
-                "must hold at least two non-parallel directions", [list(x) for x in dirs])
+        raise at.error(f"must list n_stars = {star['n_stars']} directions",
+                       [list(d) for d in dirs])
+    if star["mode"] == "vectors" and np.linalg.matrix_rank(np.array(dirs), tol=1e-3) < 2:
+        raise at.error("must hold at least two non-parallel directions", [list(x) for x in dirs])
+    return dirs
 
-    deg3 = tuple(float(x) * DEG for x in sat["initial_attitude_deg"])
-    return AttitudeWorld(
-        name=name,
-        kind=v["kind"],
-        description=v["description"],
-        duration_s=v["duration_s"],
-        satellite=SatelliteSpec(
-            orbit_height_km=sat["orbit_height_km"],
-            inclination_rad=sat["inclination_deg"],
-            orbital_rate_rad_s=sat["orbital_rate_rad_s"],
-            initial_attitude_rad=deg3,  # type: ignore[arg-type]
-            initial_rate_rad_s=tuple(float(x) * DEG for x in sat["initial_rate_deg_s"]),
-        ),
-        gyro=GyroSpec(
-            rate_hz=gyr["rate_hz"],
-            bias_rad_s=tuple(float(x) * DEG_H for x in gyr["bias_deg_h"]),  # type: ignore
-            bias_rw_rad_s_sqrt_s=gyr["bias_rw_deg_h_sqrt_h"],
-            arw_rad_sqrt_s=gyr["arw_deg_sqrt_h"],
-        ),
-        star=StarSensorSpec(
-            rate_hz=star["rate_hz"],
-            sigma_rad=star["sigma_arcsec"],
-            mode=star["mode"],
-            n_stars=star["n_stars"],
-            directions=dirs,
-        ),
-        filters=AttitudeFilterSpec(
-            names=fil["names"],
-            initial_error_rad=tuple(float(x) * DEG for x in fil["initial_error_deg"]),
-            initial_attitude_var_rad2=fil["initial_attitude_var_deg2"],
-            initial_bias_var_rad2_s2=fil["initial_bias_var_deg_h2"],
-            arw_rad_sqrt_s=fil["arw_deg_sqrt_h"],
-            bias_rw_rad_s_sqrt_s=fil["bias_rw_deg_h_sqrt_h"],
-            star_sigma_rad=fil["star_sigma_arcsec"],
-        ),
-        scoring=ScoringSpec(
-            steady_state_from_s=sco["steady_state_from_s"],
-            report_convergence=sco["report_convergence"],
-            divergence_rad=sco["divergence_deg"],
-        ),
-        runs=v["runs"],
-        seed=v["seed"],
-        paper=v["paper"],
-        source=source,
-    )
+
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
+          ) -> AttitudeWorld:
+    """Validate a parsed ``attitude`` TOML document and build its :class:`AttitudeWorld`."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    ws.check_rules(RULES, v, root)
+    dirs = _directions(v["star_sensor"], root.child("star_sensor.directions"))
+    return ws.build(WORLD, v, name=name, source=source,
+                    star=ws.build(SCHEMA["star_sensor"], v["star_sensor"], directions=dirs))

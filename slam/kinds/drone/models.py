@@ -89,11 +89,6 @@ def state_space(n_landmarks: int) -> Product:
     return Product([Euclidean(6), QUAT, Euclidean(6 + 3 * n_landmarks)])
 
 
-def landmark_cols(slot: int) -> slice:
-    """Ambient columns of landmark ``slot``."""
-    return slice(VEH_AMBIENT + 3 * slot, VEH_AMBIENT + 3 * slot + 3)
-
-
 def landmark_rows(slot: int) -> Array:
     """Tangent rows of landmark ``slot``."""
     return np.arange(VEH_DIM + 3 * slot, VEH_DIM + 3 * slot + 3)

@@ -28,7 +28,7 @@ File layout::
     [sensor]   rate_hz, max_range_m, min_range_m, fov_azimuth_half_deg,
                fov_elevation_half_deg, sigma_range_m, sigma_azimuth_deg, sigma_elevation_deg,
                line_of_sight, los_margin_m
-    [filters]  names, association ("known" | "nn"), gate_accept, gate_new, mode ("joint"),
+    [filters]  names, association ("known" | "nn"), gate_accept, gate_new, mode ("joint" | "local"),
                imu_noise_scale, sensor_noise_scale, divergence_m
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
@@ -42,31 +42,25 @@ and the white noise are per sample (``σ_rw·√dt`` and ``σ_wn/√dt``).
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from typing import Any
 
-import numpy as np
-
-from estimators import wrap_angle
-from slam.kinds.planar.world import MapSpec, filters_section
-from worlds.schema import (
-    Boolean,
-    FreeForm,
-    Integer,
-    Interval,
-    Number,
-    Points,
-    Section,
-    String,
-    Vector,
-    Where,
-    positive,
-    read_table,
+import worlds.schema as ws
+from slam.kinds.planar.world import (
+    COORD,
+    GATES,
+    MapSpec,
+    check_bounds,
+    check_inside,
+    check_local_mode,
+    filters_section,
+    start_pose,
 )
 
 KIND = "drone-slam"
-MODES = ("joint",)
+MODES = ("joint", "local")
 TERRAIN_TYPES = ("flat", "hills", "mesh")
 
 DEG = math.pi / 180.0
@@ -77,91 +71,7 @@ MG = 9.80665e-3  # milli-g -> m/s^2
 MG_SQRT_H = MG / 60.0  # mg/sqrt(h) -> m/s^2/sqrt(s)
 MPS_SQRT_H = 1.0 / 60.0  # m/s/sqrt(h) -> m/s/sqrt(s)
 
-_COORD = Interval(-1e6, 1e6)
 _HILL_KEYS = ("hill_centres_m", "hill_amplitude_m", "hill_width_m")
-
-SCHEMA = {
-    "kind": String(choices=(KIND,)),
-    "description": String(one_line=True, max_len=200),
-    "runs": Integer(Interval(1, 100_000)),
-    "seed": Integer(Interval(0, 2**63 - 1), default=0),
-    "map": Section(
-        {
-            "bounds_m": Vector(4, _COORD),
-            "landmarks": Points(),
-            "waypoints": Points(),
-        }
-    ),
-    "terrain": Section(
-        {
-            "type": String(choices=TERRAIN_TYPES, default="flat"),
-            "base_height_m": Number(Interval(-1e4, 1e4), default=0.0),
-            "grid_spacing_m": Number(Interval(0.1, 100.0), default=2.0),
-            "margin_m": Number(Interval(0.0, 1e4), default=20.0),
-            "hill_centres_m": Points(default=None, max_count=100),
-            "hill_amplitude_m": Number(Interval(-1e3, 1e3), default=None),
-            "hill_width_m": Number(positive(1e4), default=None),
-            "mesh_file": String(default=None, one_line=True),
-        },
-        required=False,
-    ),
-    "vehicle": Section(
-        {
-            "speed_mps": Number(positive(30.0), default=3.0),
-            "height_above_ground_m": Number(positive(500.0), default=5.0),
-            "max_turn_rate_deg_s": Number(positive(360.0), 25.0, DEG),
-            "max_turn_accel_deg_s2": Number(positive(3600.0), 30.0, DEG),
-            "steer_gain_per_s": Number(positive(100.0), default=1.5),
-            "at_waypoint_m": Number(positive(100.0), default=1.0),
-            "loops": Integer(Interval(1, 100), default=2),
-            "start_xy_m": Vector(2, _COORD),
-            "start_heading_deg": Number(Interval(-360.0, 360.0), None, DEG),
-            "altitude_smoothing_s": Number(Interval(0.0, 60.0), default=1.0),
-            "drag_per_s": Number(Interval(0.0, 10.0), default=0.3),
-            "initial_sigma_pos_m": Number(Interval(0.0, 100.0), default=0.0),
-            "initial_sigma_vel_mps": Number(Interval(0.0, 10.0), default=0.02),
-            "initial_sigma_roll_pitch_deg": Number(Interval(0.0, 30.0), 0.1, DEG),
-            "initial_sigma_yaw_deg": Number(Interval(0.0, 180.0), 0.2, DEG),
-        }
-    ),
-    "imu": Section(
-        {
-            "rate_hz": Number(Interval(1.0, 10_000.0), default=100.0),
-            "gravity_mps2": Number(Interval(0.0, 30.0), default=9.80665),
-            "earth_rate": Boolean(default=False),
-            "latitude_deg": Number(Interval(-90.0, 90.0), 34.75, DEG),
-            "gyro_bias_sigma_deg_h": Number(Interval(0.0, 1e5), 30.0, DEG_H),
-            "gyro_bias_rw_deg_h_sqrt_h": Number(Interval(0.0, 1e4), 3.0, DEG_H_SQRT_H),
-            "gyro_arw_deg_sqrt_h": Number(Interval(0.0, 100.0), 0.3, DEG_SQRT_H),
-            "accel_bias_sigma_mg": Number(Interval(0.0, 1000.0), 3.0, MG),
-            "accel_bias_rw_mg_sqrt_h": Number(Interval(0.0, 1000.0), 0.3, MG_SQRT_H),
-            "accel_vrw_mps_sqrt_h": Number(Interval(0.0, 100.0), 0.06, MPS_SQRT_H),
-        },
-        required=False,
-    ),
-    "sensor": Section(
-        {
-            "rate_hz": Number(Interval(0.001, 1000.0), default=5.0),
-            "max_range_m": Number(positive(10_000.0), default=30.0),
-            "min_range_m": Number(Interval(0.0, 10_000.0), default=1.0),
-            "fov_azimuth_half_deg": Number(positive(180.0), 90.0, DEG),
-            "fov_elevation_half_deg": Number(positive(85.0), 60.0, DEG),
-            "sigma_range_m": Number(positive(100.0), default=0.1),
-            "sigma_azimuth_deg": Number(positive(45.0), 1.0, DEG),
-            "sigma_elevation_deg": Number(positive(45.0), 1.0, DEG),
-            "line_of_sight": Boolean(default=True),
-            "los_margin_m": Number(Interval(0.0, 100.0), default=0.1),
-        },
-        required=False,
-    ),
-    "filters": filters_section(
-        MODES, gate_accept=7.8, gate_new=30.0,
-        imu_noise_scale=Number(positive(1e6), default=1.0),
-        sensor_noise_scale=Number(positive(1e6), default=1.0),
-        divergence_m=Number(positive(1e6), default=25.0),
-    ),
-    "paper": FreeForm(default=dict),
-}
 
 
 @dataclass(frozen=True)
@@ -303,19 +213,116 @@ class DroneWorld:
         return int(round(self.imu.rate_hz / self.sensor.rate_hz))
 
 
-def _is_whole(x: float, tol: float = 1e-9) -> bool:
-    return abs(x - round(x)) <= tol * max(1.0, abs(x))
+SCHEMA = {
+    **ws.header(KIND),
+    "map": ws.Section(
+        {
+            "bounds_m": ws.Vector(4, COORD),
+            "landmarks": ws.Points(),
+            "waypoints": ws.Points(),
+        }
+    ),
+    "terrain": ws.Section(
+        {
+            "type": ws.String(choices=TERRAIN_TYPES, default="flat").to("kind"),
+            "base_height_m": ws.Number(ws.Interval(-1e4, 1e4), default=0.0),
+            "grid_spacing_m": ws.Number(ws.Interval(0.1, 100.0), default=2.0),
+            "margin_m": ws.Number(ws.Interval(0.0, 1e4), default=20.0),
+            "hill_centres_m": ws.Points(default=None, max_count=100).to("hill_centres"),
+            "hill_amplitude_m": ws.Number(ws.Interval(-1e3, 1e3), default=None),
+            "hill_width_m": ws.Number(ws.positive(1e4), default=None),
+            "mesh_file": ws.String(default=None, one_line=True),
+        },
+        required=False,
+        into=TerrainSpec,
+    ),
+    "vehicle": ws.Section(
+        {
+            "speed_mps": ws.Number(ws.positive(30.0), default=3.0),
+            "height_above_ground_m": ws.Number(ws.positive(500.0), default=5.0),
+            "max_turn_rate_deg_s": ws.Number(ws.positive(360.0), 25.0, DEG)
+            .to("max_turn_rate_rad_s"),
+            "max_turn_accel_deg_s2": ws.Number(ws.positive(3600.0), 30.0, DEG)
+            .to("max_turn_accel_rad_s2"),
+            "steer_gain_per_s": ws.Number(ws.positive(100.0), default=1.5),
+            "at_waypoint_m": ws.Number(ws.positive(100.0), default=1.0),
+            "loops": ws.Integer(ws.Interval(1, 100), default=2),
+            "start_xy_m": ws.Vector(2, COORD).to("start_xy"),
+            "start_heading_deg": ws.Number(ws.Interval(-360.0, 360.0), None, DEG)
+            .to("start_heading_rad"),
+            "altitude_smoothing_s": ws.Number(ws.Interval(0.0, 60.0), default=1.0),
+            "drag_per_s": ws.Number(ws.Interval(0.0, 10.0), default=0.3),
+            "initial_sigma_pos_m": ws.Number(ws.Interval(0.0, 100.0), default=0.0),
+            "initial_sigma_vel_mps": ws.Number(ws.Interval(0.0, 10.0), default=0.02),
+            "initial_sigma_roll_pitch_deg": ws.Number(ws.Interval(0.0, 30.0), 0.1, DEG)
+            .to("initial_sigma_roll_pitch_rad"),
+            "initial_sigma_yaw_deg": ws.Number(ws.Interval(0.0, 180.0), 0.2, DEG)
+            .to("initial_sigma_yaw_rad"),
+        },
+        into=DroneVehicleSpec,
+    ),
+    "imu": ws.Section(
+        {
+            "rate_hz": ws.Number(ws.Interval(1.0, 10_000.0), default=100.0),
+            "gravity_mps2": ws.Number(ws.Interval(0.0, 30.0), default=9.80665),
+            "earth_rate": ws.Boolean(default=False),
+            "latitude_deg": ws.Number(ws.Interval(-90.0, 90.0), 34.75, DEG).to("latitude_rad"),
+            "gyro_bias_sigma_deg_h": ws.Number(ws.Interval(0.0, 1e5), 30.0, DEG_H)
+            .to("gyro_bias_sigma"),
+            "gyro_bias_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 1e4), 3.0, DEG_H_SQRT_H)
+            .to("gyro_bias_rw"),
+            "gyro_arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), 0.3, DEG_SQRT_H)
+            .to("gyro_arw"),
+            "accel_bias_sigma_mg": ws.Number(ws.Interval(0.0, 1000.0), 3.0, MG)
+            .to("accel_bias_sigma"),
+            "accel_bias_rw_mg_sqrt_h": ws.Number(ws.Interval(0.0, 1000.0), 0.3, MG_SQRT_H)
+            .to("accel_bias_rw"),
+            "accel_vrw_mps_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), 0.06, MPS_SQRT_H)
+            .to("accel_vrw"),
+        },
+        required=False,
+        into=ImuSpec,
+    ),
+    "sensor": ws.Section(
+        {
+            "rate_hz": ws.Number(ws.Interval(0.001, 1000.0), default=5.0),
+            "max_range_m": ws.Number(ws.positive(10_000.0), default=30.0),
+            "min_range_m": ws.Number(ws.Interval(0.0, 10_000.0), default=1.0),
+            "fov_azimuth_half_deg": ws.Number(ws.positive(180.0), 90.0, DEG)
+            .to("fov_azimuth_half_rad"),
+            "fov_elevation_half_deg": ws.Number(ws.positive(85.0), 60.0, DEG)
+            .to("fov_elevation_half_rad"),
+            "sigma_range_m": ws.Number(ws.positive(100.0), default=0.1),
+            "sigma_azimuth_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_azimuth_rad"),
+            "sigma_elevation_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_elevation_rad"),
+            "line_of_sight": ws.Boolean(default=True),
+            "los_margin_m": ws.Number(ws.Interval(0.0, 100.0), default=0.1),
+        },
+        required=False,
+        into=LandmarkSensorSpec,
+    ),
+    "filters": filters_section(
+        MODES, DroneFilterSpec, gate_accept=7.8, gate_new=30.0,
+        imu_noise_scale=ws.Number(ws.positive(1e6), default=1.0),
+        sensor_noise_scale=ws.Number(ws.positive(1e6), default=1.0),
+        divergence_m=ws.Number(ws.positive(1e6), default=25.0),
+    ),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=DroneWorld)
+
+RULES = (
+    ws.Rule("sensor.rate_hz", "imu.rate_hz", ws.whole_times,
+            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
+    ws.Rule("sensor.min_range_m", "sensor.max_range_m", operator.lt,
+            "must be below {other} ({limit:g})"),
+    GATES,
+)
+"""Checks across keys, in the order they are made."""
 
 
-def _inside(points: np.ndarray, bounds: tuple[float, ...]) -> np.ndarray:
-    xmin, xmax, ymin, ymax = bounds
-    return ((points[:, 0] >= xmin) & (points[:, 0] <= xmax)
-            & (points[:, 1] >= ymin) & (points[:, 1] <= ymax))
-
-
-def _terrain(t: dict[str, Any], data: dict[str, Any], base: Traversable | None,
-             at: Where) -> TerrainSpec:
-    kind = t["type"]
+def _check_terrain_keys(kind: str, data: dict[str, Any], at: ws.Where) -> None:
+    """Hill keys only with ``type = "hills"``, ``mesh_file`` only with ``"mesh"``."""
     given = data.get("terrain", {}) if isinstance(data.get("terrain"), dict) else {}
     if kind != "hills":
         for key in _HILL_KEYS:
@@ -323,30 +330,39 @@ def _terrain(t: dict[str, Any], data: dict[str, Any], base: Traversable | None,
                 raise at.child(key).error('only used with type = "hills"', given[key])
     if kind != "mesh" and "mesh_file" in given:
         raise at.child("mesh_file").error('only used with type = "mesh"', given["mesh_file"])
-    centres: tuple[tuple[float, float], ...] = ()
-    amplitude, width = 0.0, 1.0
-    mesh_path = None
-    if kind == "hills":
-        for key in _HILL_KEYS:
-            if t[key] is None:
-                raise at.child(key).error('missing (required with type = "hills")')
-        if len(t["hill_centres_m"]) < 1:
-            raise at.child("hill_centres_m").error("needs at least one hill centre", [])
-        centres = tuple((float(x), float(y)) for x, y in t["hill_centres_m"])
-        amplitude, width = t["hill_amplitude_m"], t["hill_width_m"]
-    if kind == "mesh":
-        rel = t["mesh_file"]
-        if rel is None:
-            raise at.child("mesh_file").error('missing (required with type = "mesh")')
-        if base is None:
-            raise at.child("mesh_file").error("a mesh file needs a world file to be "
-                                              "relative to", rel)
-        target = base.joinpath(rel)
-        if not target.is_file():
-            raise at.child("mesh_file").error("file not found", rel)
-        mesh_path = str(target)
-    return TerrainSpec(kind, t["base_height_m"], t["grid_spacing_m"], t["margin_m"], centres,
-                       amplitude, width, t["mesh_file"], mesh_path)
+
+
+def _hills(t: dict[str, Any], at: ws.Where) -> dict[str, Any]:
+    """The hill fields of a ``type = "hills"`` terrain (all three keys required)."""
+    for key in _HILL_KEYS:
+        if t[key] is None:
+            raise at.child(key).error('missing (required with type = "hills")')
+    if len(t["hill_centres_m"]) < 1:
+        raise at.child("hill_centres_m").error("needs at least one hill centre", [])
+    return {"hill_centres": tuple((float(x), float(y)) for x, y in t["hill_centres_m"]),
+            "hill_amplitude_m": t["hill_amplitude_m"], "hill_width_m": t["hill_width_m"]}
+
+
+def _mesh_path(rel: str | None, base: Traversable | None, at: ws.Where) -> str:
+    """The path of a ``type = "mesh"`` terrain's file, relative to the world file."""
+    if rel is None:
+        raise at.error('missing (required with type = "mesh")')
+    if base is None:
+        raise at.error("a mesh file needs a world file to be relative to", rel)
+    target = base.joinpath(rel)
+    if not target.is_file():
+        raise at.error("file not found", rel)
+    return str(target)
+
+
+def _terrain(t: dict[str, Any], data: dict[str, Any], base: Traversable | None,
+             at: ws.Where) -> TerrainSpec:
+    kind = t["type"]
+    _check_terrain_keys(kind, data, at)
+    hills = (_hills(t, at) if kind == "hills" else
+             {"hill_centres": (), "hill_amplitude_m": 0.0, "hill_width_m": 1.0})
+    mesh_path = _mesh_path(t["mesh_file"], base, at.child("mesh_file")) if kind == "mesh" else None
+    return ws.build(SCHEMA["terrain"], t, mesh_path=mesh_path, **hills)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -356,99 +372,22 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     ``source`` is the file name shown in errors; ``base`` the folder a mesh file is read
     from.  Whether a mesh file covers the map is checked when its terrain is built.
     """
-    root = Where(source, "")
-    v = read_table(data, SCHEMA, root)
-    m, veh, imu, sen, fil = v["map"], v["vehicle"], v["imu"], v["sensor"], v["filters"]
-    at_map = root.child("map")
-
-    bounds = m["bounds_m"]
-    if not (bounds[0] < bounds[1] and bounds[2] < bounds[3]):
-        raise at_map.child("bounds_m").error(
-            "must be [xmin, xmax, ymin, ymax] with min < max", list(bounds))
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    m, at_map = v["map"], root.child("map")
+    check_bounds(m["bounds_m"], at_map.child("bounds_m"))
     for key, least in (("landmarks", 1), ("waypoints", 2)):
-        pts = m[key]
-        outside = np.flatnonzero(~_inside(pts, bounds))
-        if outside.size:
-            i = int(outside[0])
-            raise at_map.child(key).item(i).error(
-                f"outside the map bounds_m {list(bounds)}", pts[i].tolist())
-        if len(pts) < least:
-            raise at_map.child(key).error(f"needs at least {least}", pts.tolist())
-
-    at_veh = root.child("vehicle")
-    sx, sy = veh["start_xy_m"]
-    if not _inside(np.array([[sx, sy]]), bounds)[0]:
-        raise at_veh.child("start_xy_m").error(f"outside the map bounds_m {list(bounds)}",
-                                               [sx, sy])
-    heading = veh["start_heading_deg"]
-    if heading is None:  # towards the first waypoint
-        wx, wy = m["waypoints"][0]
-        heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
-    heading = wrap_angle(float(heading))
-
-    ratio = imu["rate_hz"] / sen["rate_hz"]
-    if not (_is_whole(ratio) and round(ratio) >= 1):
-        raise root.child("sensor.rate_hz").error(
-            f"must divide the IMU rate ({imu['rate_hz']:g} Hz) a whole number of times",
-            sen["rate_hz"])
-    if sen["min_range_m"] >= sen["max_range_m"]:
-        raise root.child("sensor.min_range_m").error(
-            f"must be below max_range_m ({sen['max_range_m']:g})", sen["min_range_m"])
-    if fil["gate_new"] < fil["gate_accept"]:
-        raise root.child("filters.gate_new").error(
-            f"must be >= gate_accept ({fil['gate_accept']:g})", fil["gate_new"])
-
-    terrain = _terrain(v["terrain"], data, base, root.child("terrain"))
-    return DroneWorld(
-        name=name,
-        kind=v["kind"],
-        description=v["description"],
-        map=MapSpec(bounds, m["landmarks"], m["waypoints"]),
-        terrain=terrain,
-        vehicle=DroneVehicleSpec(
-            speed_mps=veh["speed_mps"],
-            height_above_ground_m=veh["height_above_ground_m"],
-            max_turn_rate_rad_s=veh["max_turn_rate_deg_s"],
-            max_turn_accel_rad_s2=veh["max_turn_accel_deg_s2"],
-            steer_gain_per_s=veh["steer_gain_per_s"],
-            at_waypoint_m=veh["at_waypoint_m"],
-            loops=veh["loops"],
-            start_xy=(sx, sy),
-            start_heading_rad=heading,
-            altitude_smoothing_s=veh["altitude_smoothing_s"],
-            drag_per_s=veh["drag_per_s"],
-            initial_sigma_pos_m=veh["initial_sigma_pos_m"],
-            initial_sigma_vel_mps=veh["initial_sigma_vel_mps"],
-            initial_sigma_roll_pitch_rad=veh["initial_sigma_roll_pitch_deg"],
-            initial_sigma_yaw_rad=veh["initial_sigma_yaw_deg"],
-        ),
-        imu=ImuSpec(
-            rate_hz=imu["rate_hz"],
-            gravity_mps2=imu["gravity_mps2"],
-            earth_rate=imu["earth_rate"],
-            latitude_rad=imu["latitude_deg"],
-            gyro_bias_sigma=imu["gyro_bias_sigma_deg_h"],
-            gyro_bias_rw=imu["gyro_bias_rw_deg_h_sqrt_h"],
-            gyro_arw=imu["gyro_arw_deg_sqrt_h"],
-            accel_bias_sigma=imu["accel_bias_sigma_mg"],
-            accel_bias_rw=imu["accel_bias_rw_mg_sqrt_h"],
-            accel_vrw=imu["accel_vrw_mps_sqrt_h"],
-        ),
-        sensor=LandmarkSensorSpec(
-            rate_hz=sen["rate_hz"],
-            max_range_m=sen["max_range_m"],
-            min_range_m=sen["min_range_m"],
-            fov_azimuth_half_rad=sen["fov_azimuth_half_deg"],
-            fov_elevation_half_rad=sen["fov_elevation_half_deg"],
-            sigma_range_m=sen["sigma_range_m"],
-            sigma_azimuth_rad=sen["sigma_azimuth_deg"],
-            sigma_elevation_rad=sen["sigma_elevation_deg"],
-            line_of_sight=sen["line_of_sight"],
-            los_margin_m=sen["los_margin_m"],
-        ),
-        filters=DroneFilterSpec(**fil),
-        runs=v["runs"],
-        seed=v["seed"],
-        paper=v["paper"],
-        source=source,
+        check_inside(m[key], m["bounds_m"], at_map.child(key))
+        if len(m[key]) < least:
+            raise at_map.child(key).error(f"needs at least {least}", m[key].tolist())
+    sx, sy, heading = start_pose(v["vehicle"], m["bounds_m"], m["waypoints"],
+                                 root.child("vehicle"))
+    check_local_mode(v["filters"], root.child("filters.mode"))
+    ws.check_rules(RULES, v, root)
+    return ws.build(
+        WORLD, v, name=name, source=source,
+        map=MapSpec(m["bounds_m"], m["landmarks"], m["waypoints"]),
+        terrain=_terrain(v["terrain"], data, base, root.child("terrain")),
+        vehicle=ws.build(SCHEMA["vehicle"], v["vehicle"], start_xy=(sx, sy),
+                         start_heading_rad=heading),
     )

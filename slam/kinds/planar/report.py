@@ -10,89 +10,64 @@ errors, NEES and TUM trajectory files.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from matplotlib.lines import Line2D
-from matplotlib.patches import Patch, Rectangle
+from matplotlib.patches import Rectangle
 from matplotlib.ticker import FormatStrFormatter
 
-from slam.render.document import KindReport, Section
+from slam.render.document import KindReport, Section, captioned, paper_ranges_section
+from slam.render.output import tum_text as tum_lines
+from slam.render.output import write_tum
 from slam.render.plotting import (
+    BASELINE_COLOUR,
+    REFERENCE_COLOUR,
+    ErrorGrid,
+    ErrorPanel,
     covariance_ellipse,
     envelope,
-    filter_colours,
+    error_grid,
     filter_names,
     plt,
     run0,
+    run_average,
     save,
+    titled,
 )
+from slam.render.plotting import estimator_colours as _colours
 from slam.render.plotting import good_scores as _good_scores
 from slam.render.tables import (
-    MISSING,
-    anees_cell,
-    estimator_entries,
-    interval,
-    markdown_table,
-    num,
+    Column,
+    anees_column,
     paper_range,
-    paper_rows,
-    plain_table,
+    slam_table,
+    value,
 )
 from slam.results import ODOMETRY, REFERENCE, Array, CampaignResult
 
 _TRUTH_STYLE = {"color": "black", "lw": 1.6}
 _BASELINE_STYLE = {
-    ODOMETRY: {"color": "0.55", "lw": 1.0, "ls": ":"},
-    REFERENCE: {"color": "#7a3b8f", "lw": 1.2, "ls": "--"},
+    ODOMETRY: {"color": BASELINE_COLOUR, "lw": 1.0, "ls": ":"},
+    REFERENCE: {"color": REFERENCE_COLOUR, "lw": 1.2, "ls": "--"},
 }
 
 
-RESULT_COLUMNS = ("estimator", "pos RMSE (m)", "x range (m)", "y range (m)",
-                  "heading RMSE (deg)", "landmark RMSE (m)", "ANEES [95 % band]", "NIS/dof",
-                  "time/step (µs)", "diverged runs")
-
-
-def _result_row(name: str, entry: dict[str, Any]) -> list[str]:
-    ranges = entry.get("pos_err_range_m") or {}
-    scored, diverged = entry.get("runs_scored"), entry.get("diverged_runs")
-    runs = "" if scored is None or diverged is None else f"/{scored + diverged}"
-    return [
-        name,
-        num(entry.get("pos_rmse_m"), ".3f"),
-        interval(ranges.get("x")),
-        interval(ranges.get("y")),
-        num(entry.get("heading_rmse_deg"), ".2f"),
-        num(entry.get("landmark_rmse_m"), ".3f"),
-        anees_cell(entry),
-        num(entry.get("nis_mean"), ".2f"),
-        num(entry.get("time_per_step_s"), ".1f", 1e6),
-        MISSING if diverged is None else f"{diverged}{runs}",
-    ]
+RESULTS = slam_table("xy", Column("heading RMSE (deg)", value("heading_rmse_deg", ".2f")),
+                     [anees_column("ANEES [95 % band]")],
+                     Column("time/step (µs)", value("time_per_step_s", ".1f", 1e6)))
 
 
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter, then the odometry baseline and the GTSAM reference."""
-    return [_result_row(n, e) for n, e in estimator_entries(summary)]
-
-
+    return RESULTS.rows(summary)
 
 
 def results_table(summary: dict[str, Any]) -> str:
     """The results table in Markdown: filters, then ``odometry`` and ``gtsam``."""
-    return markdown_table(RESULT_COLUMNS, result_rows(summary))
-
-
-
-def _paper_note(summary: dict[str, Any]) -> str:
-    source = (summary.get("paper") or {}).get("source")
-    note = ("The paper's ranges were read off its figures, so they are approximate"
-            + (f" (source: {source})." if source else "."))
-    return (note + " Ours are the minimum and maximum x / y error over every step of every"
-            " run that did not diverge.")
+    return RESULTS.markdown(summary)
 
 
 HOW_TO_READ = (
@@ -119,26 +94,22 @@ FIGURE_CAPTIONS = {
 
 def planar_sections(summary: dict[str, Any]) -> list[Section]:
     """Results, the paper's ranges next to ours, and how to read them."""
-    header, rows = paper_rows(summary)
-    paper = (Section("Paper vs ours: vehicle position error ranges", header, rows,
-                     _paper_note(summary)) if rows else
-             Section("Paper vs ours: vehicle position error ranges",
-                     text="The world file quotes no error ranges from a paper."))
-    return [Section("Results", RESULT_COLUMNS, result_rows(summary)), paper,
+    paper = paper_ranges_section(
+        summary, "Paper vs ours: vehicle position error ranges",
+        "Ours are the minimum and maximum x / y error over every step of every run that did "
+        "not diverge.")
+    return [Section("Results", RESULTS.header, result_rows(summary)), paper,
             Section("How to read this", text=HOW_TO_READ)]
 
 
 def planar_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
     """File name -> (function drawing it, caption); looked up at call time."""
-    return {name: (fn, FIGURE_CAPTIONS[name]) for name, fn in figure_writers().items()}
-
+    return captioned(figure_writers(), FIGURE_CAPTIONS)
 
 
 def estimator_colours(result: CampaignResult) -> dict[str, str]:
     """One colour per filter (tab10 order) plus the baselines' fixed colours."""
-    out = filter_colours(filter_names(result))
-    out.update({n: st["color"] for n, st in _BASELINE_STYLE.items()})
-    return out
+    return _colours(filter_names(result), baselines=(ODOMETRY,))
 
 
 def _landmark_estimators(result: CampaignResult) -> list[str]:
@@ -224,7 +195,7 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{result.summary.get('world', '')}: run 0")
+    ax.set_title(titled(result, "run 0"))
     ax.grid(True, lw=0.3, alpha=0.5)
 
     handles, labels = ax.get_legend_handles_labels()
@@ -253,6 +224,11 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     save(fig, path)
 
 
+_XY_GRID = ErrorGrid(axes=("x", "y"), width=10.5, top=1.2, ylabel="{name}: {axis} error (m)",
+                    legend=("error", "sigma", "envelope", "paper", "reference"),
+                    title="vehicle position error", sharey=True)
+
+
 def plot_errors_xy(result: CampaignResult, path: Path) -> None:
     """``errors_xy.png``: one row per filter, x error (left) and y error (right) vs time.
 
@@ -261,74 +237,21 @@ def plot_errors_xy(result: CampaignResult, path: Path) -> None:
     for reference, and dashed lines at the paper's range where the paper quotes one.
     """
     first = run0(result)
-    names = filter_names(result)
-    colours = estimator_colours(result)
-    t = first.times
-    fig, axes = plt.subplots(len(names), 2, figsize=(10.5, 1.2 + 1.9 * len(names)),
-                             sharex=True, sharey=True, squeeze=False, layout="constrained")
     ref = first.scores.get(REFERENCE)
-    for row, name in enumerate(names):
-        c = colours[name]
-        track = first.tracks.get(name)
-        sc0 = first.scores.get(name)
-        for col, axis in enumerate("xy"):
-            ax = axes[row, col]
-            env = envelope(_good_scores(result, name), lambda s, c=col: s.err[:, c])
-            if env is not None:
-                ax.fill_between(t, env[0], env[1], color=c, alpha=0.15, lw=0)
-            if sc0 is not None and not sc0.diverged and track is not None:
-                with np.errstate(invalid="ignore"):
-                    sd = np.sqrt(track.pose_cov[:, col, col])
-                ax.plot(t, 2 * sd, color=c, lw=0.7, ls="-", alpha=0.55)
-                ax.plot(t, -2 * sd, color=c, lw=0.7, ls="-", alpha=0.55)
-                ax.plot(t, sc0.err[:, col], color=c, lw=1.0)
-            elif col == 0:
-                note = "diverged on every run" if env is None else "diverged on run 0"
-                ax.text(0.01, 0.95, note, transform=ax.transAxes, va="top", fontsize=8,
-                        color=c)
-            if ref is not None:
-                ax.plot(t, ref.err[:, col], color=_BASELINE_STYLE[REFERENCE]["color"],
-                        lw=0.7, alpha=0.8)
-            paper = paper_range(result.summary, name, axis)
-            if paper is not None:
-                for v in paper:
-                    ax.axhline(v, color=c, ls="--", lw=1.2)
-            ax.axhline(0.0, color="0.6", lw=0.5)
-            ax.grid(True, lw=0.3, alpha=0.5)
-            ax.set_ylabel(f"{name}: {axis} error (m)", fontsize=9)
-            if row == 0:
-                ax.set_title(f"{axis} error", fontsize=10)
-            if row == len(names) - 1:
-                ax.set_xlabel("time (s)")
-    legend = [
-        Line2D([], [], color="0.2", lw=1.0, label="run 0 error"),
-        Line2D([], [], color="0.2", lw=0.7, alpha=0.55, label="run 0 ±2σ"),
-        Patch(fc="0.2", alpha=0.15, label="Monte Carlo envelope (min/max)"),
-        Line2D([], [], color="0.2", ls="--", lw=1.2, label="paper's range"),
-        Line2D([], [], color=_BASELINE_STYLE[REFERENCE]["color"], lw=0.7,
-               label="gtsam run 0 error"),
-    ]
-    fig.legend(handles=legend, loc="outside lower center", fontsize=8, ncols=len(legend),
-               frameon=False)
-    _set_error_limits(result, axes)
-    fig.suptitle(f"{result.summary.get('world', '')}: vehicle position error", fontsize=11)
-    save(fig, path)
 
+    def panel(name: str, col: int) -> ErrorPanel:
+        track, sc0 = first.tracks.get(name), first.scores.get(name)
+        env = envelope(_good_scores(result, name), lambda s: s.err[:, col])
+        shown = None
+        if sc0 is not None and not sc0.diverged and track is not None:
+            with np.errstate(invalid="ignore"):
+                shown = (sc0.err[:, col], np.sqrt(track.pose_cov[:, col, col]))
+        note = "diverged on every run" if env is None else "diverged on run 0"
+        return ErrorPanel(env, shown, note if col == 0 else "",
+                          None if ref is None else ref.err[:, col],
+                          paper_range(result.summary, name, _XY_GRID.axes[col]))
 
-def _set_error_limits(result: CampaignResult, axes: np.ndarray) -> None:
-    """Symmetric y limits that hold the envelopes and the paper's ranges (not a
-    diverged run's blow-up)."""
-    lim = 0.0
-    for name in filter_names(result):
-        for col, axis in enumerate("xy"):
-            env = envelope(_good_scores(result, name), lambda s, c=col: s.err[:, c])
-            if env is not None:
-                lim = max(lim, float(np.nanmax(np.abs(env))))
-            paper = paper_range(result.summary, name, axis)
-            if paper is not None:
-                lim = max(lim, *map(abs, paper))
-    if lim > 0.0:
-        axes[0, 0].set_ylim(-1.15 * lim, 1.15 * lim)
+    error_grid(result, path, _XY_GRID, panel, estimator_colours(result))
 
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
@@ -342,11 +265,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
         scores = _good_scores(result, name)
         if not scores:
             continue
-        nees = np.stack([s.nees for s in scores])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # steps with no NEES in any run
-            mean = np.nanmean(nees, axis=0) / 3.0
-        mean[~(mean > 0.0)] = np.nan  # log axis: drop zeros (no NEES yet)
+        mean = run_average([s.nees for s in scores], 3.0)
         entry = result.summary["filters"].get(name, {})
         anees = entry.get("anees")
         label = name if anees is None else f"{name} (ANEES {anees:.2f})"
@@ -367,8 +286,8 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
     ax.tick_params(axis="y", which="both", labelsize=8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("NEES / 3 (run average)")
-    ax.set_title(f"{result.summary.get('world', '')}: pose consistency "
-                 f"(a consistent filter stays near 1, inside the band)")
+    ax.set_title(titled(result, "pose consistency (a consistent filter stays near 1, inside "
+                               "the band)"))
     ax.grid(True, which="both", lw=0.3, alpha=0.5)
     handles, labels = ax.get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", fontsize=8,
@@ -392,10 +311,8 @@ def tum_text(times: Array, poses: Array) -> str:
     ok = np.all(np.isfinite(poses), axis=1) & np.isfinite(times)
     t, p = times[ok], poses[ok]
     half = 0.5 * p[:, 2]
-    cols = np.column_stack([t, p[:, 0], p[:, 1], np.zeros(len(t)), np.zeros(len(t)),
-                            np.zeros(len(t)), np.sin(half), np.cos(half)])
-    return "".join(" ".join(f"{v:.9g}" if j else f"{v:.6f}" for j, v in enumerate(r)) + "\n"
-                   for r in cols)
+    return tum_lines(np.column_stack([t, p[:, 0], p[:, 1], np.zeros(len(t)), np.zeros(len(t)),
+                                      np.zeros(len(t)), np.sin(half), np.cos(half)]))
 
 
 def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
@@ -403,16 +320,10 @@ def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
     first = result.outcomes[0]
     if first.truth is None or first.times is None:
         return []
-    written = []
-    for name, poses in [("truth", first.truth),
-                        *((n, tr.poses) for n, tr in first.tracks.items())]:
-        (out_dir / f"{name}.tum").write_text(tum_text(first.times, poses), encoding="utf-8")
-        written.append(f"{name}.tum")
-    return written
-
-
+    items = [("truth", first.truth), *((n, tr.poses) for n, tr in first.tracks.items())]
+    return write_tum(out_dir, ((n, tum_text(first.times, p)) for n, p in items))
 
 
 REPORT = KindReport("planar SLAM campaign", planar_sections, planar_figures,
-                    lambda s: plain_table(RESULT_COLUMNS, result_rows(s)), write_tum_files)
+                    RESULTS.plain, write_tum_files)
 """The planar SLAM kind's report."""

@@ -15,7 +15,7 @@ File layout (degrees only in the file, with ``_deg`` in the key; radians in the 
     [noise]    sigma_speed_mps, sigma_steer_deg
     [filters]  names, association ("known" | "nn"), gate_accept, gate_new,
                mode ("joint": sigma points over the whole state | "local": over the blocks
-               a step touches, for ekf, srckf, srukf, srcdkf; see slam/local.py)
+               a step touches, for ekf, srckf, srukf, srcdkf; see slam/mapping/local.py)
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 Keys of ``[vehicle]``, ``[sensor]``, ``[noise]`` and ``[filters]`` other than the start,
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -33,98 +34,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import wrap_angle
+import worlds.schema as ws
+from estimators import PARTITIONED_FILTERS, wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
-from worlds.schema import (
-    Boolean,
-    Field,
-    FreeForm,
-    Integer,
-    Interval,
-    Number,
-    Points,
-    Section,
-    String,
-    StringList,
-    Vector,
-    Where,
-    positive,
-    read_table,
-)
 
 Array = NDArray[np.float64]
 DEG = math.pi / 180.0
 KIND = "planar-slam"
 ASSOCIATIONS = ("known", "nn")
 MODES = ("joint", "local")
+LOCAL_FILTERS = PARTITIONED_FILTERS
 
-
-def filters_section(modes: tuple[str, ...], *, gate_accept: float, gate_new: float,
-                    **extra: Field) -> Section:
-    """The ``[filters]`` table of a SLAM world: filter names, association, the
-    nearest-neighbour gates (squared Mahalanobis), the mode, and kind-specific keys."""
-    return Section(
-        {
-            "names": StringList(FILTER_NAMES),
-            "association": String(choices=ASSOCIATIONS, default="known"),
-            "gate_accept": Number(positive(1_000.0), default=gate_accept),
-            "gate_new": Number(positive(10_000.0), default=gate_new),
-            "mode": String(choices=modes, default="joint"),
-            **extra,
-        }
-    )
-LOCAL_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
-
-_COORD = Interval(-1e6, 1e6)
-
-SCHEMA = {
-    "kind": String(choices=(KIND,)),
-    "description": String(one_line=True, max_len=200),
-    "runs": Integer(Interval(1, 100_000)),
-    "seed": Integer(Interval(0, 2**63 - 1), default=0),
-    "map": Section(
-        {
-            "bounds_m": Vector(4, _COORD),
-            "file": String(default=None),
-            "landmarks": Points(default=None),
-            "waypoints": Points(default=None),
-        }
-    ),
-    "vehicle": Section(
-        {
-            "speed_mps": Number(positive(50.0), default=3.0),
-            "max_steer_deg": Number(Interval(0.0, 90.0, True, True), 30.0, DEG),
-            "steer_rate_deg_s": Number(positive(360.0), 20.0, DEG),
-            "wheelbase_m": Number(positive(20.0), default=4.0),
-            "dt_s": Number(positive(1.0), default=0.025),
-            "at_waypoint_m": Number(positive(100.0), default=1.0),
-            "loops": Integer(Interval(1, 100), default=2),
-            "start_xy_m": Vector(2, _COORD),
-            "start_heading_deg": Number(Interval(-360.0, 360.0), None, DEG),
-            "initial_sigma_xy_m": Number(Interval(0.0, 100.0), 0.0),
-            "initial_sigma_heading_deg": Number(Interval(0.0, 180.0), 0.0, DEG),
-        }
-    ),
-    "sensor": Section(
-        {
-            "max_range_m": Number(positive(10_000.0), default=30.0),
-            "period_steps": Integer(Interval(1, 100_000), default=8),
-            "sigma_range_m": Number(positive(100.0), default=0.1),
-            "sigma_bearing_deg": Number(positive(45.0), 1.0, DEG),
-            "front_half_plane": Boolean(default=True),
-        },
-        required=False,
-    ),
-    "noise": Section(
-        {
-            "sigma_speed_mps": Number(positive(10.0), default=0.3),
-            "sigma_steer_deg": Number(positive(45.0), 3.0, DEG),
-        },
-        required=False,
-    ),
-    "filters": filters_section(MODES, gate_accept=4.0, gate_new=25.0),
-    "paper": FreeForm(default=dict),
-}
+COORD = ws.Interval(-1e6, 1e6)
+"""Allowed map coordinates (m)."""
 
 
 def _frozen(a: Any) -> Array:
@@ -226,7 +148,80 @@ class World:
     """Where the world came from (file path as shown in errors, or ``<name>``)."""
 
 
-def _read_map_file(rel: str, base: Traversable | None, where: Where) -> dict[str, Array]:
+def filters_section(modes: tuple[str, ...], into: type, *, gate_accept: float,
+                    gate_new: float, **extra: ws.Field) -> ws.Section:
+    """The ``[filters]`` table of a SLAM world: filter names, association, the
+    nearest-neighbour gates (squared Mahalanobis), the mode, and kind-specific keys."""
+    return ws.Section(
+        {
+            "names": ws.StringList(FILTER_NAMES),
+            "association": ws.String(choices=ASSOCIATIONS, default="known"),
+            "gate_accept": ws.Number(ws.positive(1_000.0), default=gate_accept),
+            "gate_new": ws.Number(ws.positive(10_000.0), default=gate_new),
+            "mode": ws.String(choices=modes, default="joint"),
+            **extra,
+        },
+        into=into,
+    )
+
+
+GATES = ws.Rule("filters.gate_new", "filters.gate_accept", operator.ge,
+                "must be >= {other} ({limit:g})")
+"""A new landmark's gate is not inside the accepting one."""
+
+SCHEMA = {
+    **ws.header(KIND),
+    "map": ws.Section(
+        {
+            "bounds_m": ws.Vector(4, COORD),
+            "file": ws.String(default=None),
+            "landmarks": ws.Points(default=None),
+            "waypoints": ws.Points(default=None),
+        }
+    ),
+    "vehicle": ws.Section(
+        {
+            "speed_mps": ws.Number(ws.positive(50.0), default=3.0),
+            "max_steer_deg": ws.Number(ws.Interval(0.0, 90.0, True, True), 30.0, DEG)
+            .to("max_steer_rad"),
+            "steer_rate_deg_s": ws.Number(ws.positive(360.0), 20.0, DEG).to("steer_rate_rad_s"),
+            "wheelbase_m": ws.Number(ws.positive(20.0), default=4.0),
+            "dt_s": ws.Number(ws.positive(1.0), default=0.025),
+            "at_waypoint_m": ws.Number(ws.positive(100.0), default=1.0),
+            "loops": ws.Integer(ws.Interval(1, 100), default=2),
+            "start_xy_m": ws.Vector(2, COORD).to(None),
+            "start_heading_deg": ws.Number(ws.Interval(-360.0, 360.0), None, DEG).to(None),
+            "initial_sigma_xy_m": ws.Number(ws.Interval(0.0, 100.0), 0.0).to(None),
+            "initial_sigma_heading_deg": ws.Number(ws.Interval(0.0, 180.0), 0.0, DEG).to(None),
+        },
+        into=VehicleSpec,
+    ),
+    "sensor": ws.Section(
+        {
+            "max_range_m": ws.Number(ws.positive(10_000.0), default=30.0),
+            "period_steps": ws.Integer(ws.Interval(1, 100_000), default=8),
+            "sigma_range_m": ws.Number(ws.positive(100.0), default=0.1),
+            "sigma_bearing_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_bearing_rad"),
+            "front_half_plane": ws.Boolean(default=True),
+        },
+        required=False,
+        into=RangeBearingSpec,
+    ),
+    "noise": ws.Section(
+        {
+            "sigma_speed_mps": ws.Number(ws.positive(10.0), default=0.3),
+            "sigma_steer_deg": ws.Number(ws.positive(45.0), 3.0, DEG).to("sigma_steer_rad"),
+        },
+        required=False,
+        into=ControlNoise,
+    ),
+    "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=World)
+
+
+def _read_map_file(rel: str, base: Traversable | None, where: ws.Where) -> dict[str, Array]:
     """Read ``{"lm": [xs, ys], "wp": [xs, ys]}`` (either may be absent) next to the world."""
     if base is None:
         raise where.error("a map file needs a world file to be relative to", rel)
@@ -268,98 +263,97 @@ def _inside(points: Array, bounds: tuple[float, ...]) -> NDArray[np.bool_]:
     )
 
 
-def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None) -> World:
-    """Validate a parsed ``planar-slam`` TOML document and build its :class:`World`.
+def outside_rule(bounds: tuple[float, ...]) -> str:
+    """The error message of a point outside the map."""
+    return f"outside the map bounds_m {list(bounds)}"
 
-    ``source`` is the file name shown in errors; ``base`` the folder map files are read from.
-    """
-    root = Where(source, "")
-    v = read_table(data, SCHEMA, root)
-    m, veh, sen, noi, fil = v["map"], v["vehicle"], v["sensor"], v["noise"], v["filters"]
-    at_map = root.child("map")
 
-    bounds = m["bounds_m"]
+def first_outside(points: Array, bounds: tuple[float, ...]) -> int | None:
+    """Index of the first point outside ``bounds`` (or None)."""
+    outside = np.flatnonzero(~_inside(points, bounds))
+    return int(outside[0]) if outside.size else None
+
+
+def check_inside(points: Array, bounds: tuple[float, ...], at: ws.Where) -> None:
+    """Refuse the first of the inline ``points`` (at ``at[i]``) outside ``bounds``."""
+    i = first_outside(points, bounds)
+    if i is not None:
+        raise at.item(i).error(outside_rule(bounds), points[i].tolist())
+
+
+def check_bounds(bounds: tuple[float, ...], at: ws.Where) -> None:
+    """``bounds_m`` is ``[xmin, xmax, ymin, ymax]`` with each min below its max."""
     if not (bounds[0] < bounds[1] and bounds[2] < bounds[3]):
-        raise at_map.child("bounds_m").error(
-            "must be [xmin, xmax, ymin, ymax] with min < max", list(bounds)
-        )
+        raise at.error("must be [xmin, xmax, ymin, ymax] with min < max", list(bounds))
 
+
+def start_pose(vehicle: dict[str, Any], bounds: tuple[float, ...], waypoints: Array,
+               at: ws.Where) -> tuple[float, float, float]:
+    """``(x, y, heading)`` of the start; by default heading towards the first waypoint."""
+    sx, sy = vehicle["start_xy_m"]
+    if not _inside(np.array([[sx, sy]]), bounds)[0]:
+        raise at.child("start_xy_m").error(outside_rule(bounds), [sx, sy])
+    heading = vehicle["start_heading_deg"]
+    if heading is None:  # towards the first waypoint
+        wx, wy = waypoints[0]
+        heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
+    return sx, sy, wrap_angle(float(heading))
+
+
+def _map_points(m: dict[str, Any], base: Traversable | None, at_map: ws.Where
+                ) -> dict[str, Array]:
+    """Landmarks and waypoints, each inline or from the map file, inside the bounds."""
+    bounds = m["bounds_m"]
     from_file = _read_map_file(m["file"], base, at_map.child("file")) if m["file"] else {}
     points = {}
     for key, short in (("landmarks", "lm"), ("waypoints", "wp")):
-        at = at_map.child(key)
-        if m[key] is not None and short in from_file:
+        at, inline = at_map.child(key), m[key]
+        if inline is not None and short in from_file:
             raise at.error(f"given both inline and in map file {m['file']!r}")
-        if m[key] is None and short not in from_file:
+        if inline is None and short not in from_file:
             raise at.error("missing (required, inline or via [map] file)")
-        pts = m[key] if m[key] is not None else from_file[short]
-        outside = np.flatnonzero(~_inside(pts, bounds))
-        if outside.size:
-            i = int(outside[0])
-            rule = f"outside the map bounds_m {list(bounds)}"
-            if m[key] is not None:
-                raise at.item(i).error(rule, pts[i].tolist())
-            raise at_map.child("file").error(f"{key}[{i}] = {pts[i].tolist()} is {rule}", m["file"])
-        points[key] = pts
+        if inline is not None:
+            check_inside(inline, bounds, at)
+        elif (i := first_outside(from_file[short], bounds)) is not None:
+            pt = from_file[short][i].tolist()
+            raise at_map.child("file").error(f"{key}[{i}] = {pt} is {outside_rule(bounds)}",
+                                             m["file"])
+        points[key] = inline if inline is not None else from_file[short]
     if len(points["waypoints"]) < 2:
         raise at_map.child("waypoints").error(
             "needs at least 2 waypoints", points["waypoints"].tolist()
         )
     if len(points["landmarks"]) < 1:
         raise at_map.child("landmarks").error("needs at least 1 landmark", [])
+    return points
 
-    at_veh = root.child("vehicle")
-    sx, sy = veh["start_xy_m"]
-    if not _inside(np.array([[sx, sy]]), bounds)[0]:
-        raise at_veh.child("start_xy_m").error(f"outside the map bounds_m {list(bounds)}", [sx, sy])
-    heading = veh["start_heading_deg"]
-    if heading is None:  # towards the first waypoint
-        wx, wy = points["waypoints"][0]
-        heading = math.atan2(wy - sy, wx - sx) if (wx, wy) != (sx, sy) else 0.0
-    heading = wrap_angle(float(heading))
 
-    if fil["mode"] == "local":
-        no_local = [n for n in fil["names"] if n not in LOCAL_FILTERS]
-        if no_local:
-            rule = (f"local mode supports {', '.join(LOCAL_FILTERS)} only, not "
-                    f"{', '.join(no_local)} (use mode = \"joint\")")
-            raise root.child("filters.mode").error(rule, fil["mode"])
+def check_local_mode(fil: dict[str, Any], at: ws.Where) -> None:
+    """``mode = "local"`` only with filters that have a local mode."""
+    no_local = [n for n in fil["names"] if n not in LOCAL_FILTERS]
+    if fil["mode"] == "local" and no_local:
+        rule = (f"local mode supports {', '.join(LOCAL_FILTERS)} only, not "
+                f"{', '.join(no_local)} (use mode = \"joint\")")
+        raise at.error(rule, fil["mode"])
 
-    if fil["gate_new"] < fil["gate_accept"]:
-        rule = f"must be >= gate_accept ({fil['gate_accept']:g})"
-        raise root.child("filters.gate_new").error(rule, fil["gate_new"])
 
-    return World(
-        name=name,
-        kind=v["kind"],
-        description=v["description"],
-        map=MapSpec(bounds, points["landmarks"], points["waypoints"]),
-        vehicle=VehicleSpec(
-            speed_mps=veh["speed_mps"],
-            max_steer_rad=veh["max_steer_deg"],
-            steer_rate_rad_s=veh["steer_rate_deg_s"],
-            wheelbase_m=veh["wheelbase_m"],
-            dt_s=veh["dt_s"],
-            at_waypoint_m=veh["at_waypoint_m"],
-            loops=veh["loops"],
-            start=(sx, sy, heading),
-            initial_pose_sigma=(
-                veh["initial_sigma_xy_m"],
-                veh["initial_sigma_xy_m"],
-                veh["initial_sigma_heading_deg"],
-            ),
-        ),
-        sensor=RangeBearingSpec(
-            max_range_m=sen["max_range_m"],
-            period_steps=sen["period_steps"],
-            sigma_range_m=sen["sigma_range_m"],
-            sigma_bearing_rad=sen["sigma_bearing_deg"],
-            front_half_plane=sen["front_half_plane"],
-        ),
-        noise=ControlNoise(noi["sigma_speed_mps"], noi["sigma_steer_deg"]),
-        filters=FilterSpec(**fil),
-        runs=v["runs"],
-        seed=v["seed"],
-        paper=v["paper"],
-        source=source,
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None) -> World:
+    """Validate a parsed ``planar-slam`` TOML document and build its :class:`World`.
+
+    ``source`` is the file name shown in errors; ``base`` the folder map files are read from.
+    """
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    m, veh = v["map"], v["vehicle"]
+    check_bounds(m["bounds_m"], root.child("map.bounds_m"))
+    points = _map_points(m, base, root.child("map"))
+    start = start_pose(veh, m["bounds_m"], points["waypoints"], root.child("vehicle"))
+    check_local_mode(v["filters"], root.child("filters.mode"))
+    ws.check_rules((GATES,), v, root)
+    sigma = (veh["initial_sigma_xy_m"], veh["initial_sigma_xy_m"],
+             veh["initial_sigma_heading_deg"])
+    return ws.build(
+        WORLD, v, name=name, source=source,
+        map=MapSpec(m["bounds_m"], points["landmarks"], points["waypoints"]),
+        vehicle=ws.build(SCHEMA["vehicle"], veh, start=start, initial_pose_sigma=sigma),
     )
