@@ -2,8 +2,8 @@
 
 Every kind is a folder under ``slam/kinds/`` exporting one :class:`~slam.kind.Kind`;
 the built-in kinds are registered here, in one place (kinds never import this module).
-A kind defined elsewhere (a plug-in, a test) calls :func:`register` itself.  The command line, the campaign runner
-and the report writer look kinds up here and nowhere else.
+A kind defined elsewhere (a plug-in, a test) calls :func:`register` itself.  The command
+line, the campaign runner and the report writer look kinds up here and nowhere else.
 """
 
 from __future__ import annotations

@@ -1,7 +1,18 @@
-"""Shared pytest configuration."""
+"""Shared pytest configuration.
+
+Layout: ``tests/`` mirrors the packages (``tests/estimators``, ``tests/nav``,
+``tests/slam`` with ``tests/slam/kinds/<kind>``, ``tests/worlds``).  Every folder is a
+package (it has an ``__init__.py``), so pytest imports a test file by its dotted name
+(``tests.slam.test_cli``, ``tests.slam.kinds.recorded.test_cli``): basenames may repeat
+across folders, and ``tests/`` itself is never put on ``sys.path`` (a ``tests/nav``
+package there would shadow the real ``nav``).  Shared helpers are imported as
+``tests.<module>`` (``tests.small_worlds``, ``tests.linear_model``); pytest puts the
+repository root on ``sys.path`` for that, so no ``pythonpath`` setting is needed.
+"""
 
 import os
 
 # one BLAS thread per test process keeps timings and rounding reproducible
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+

@@ -1,12 +1,22 @@
-"""Small in-code worlds for tests: built through the same validator as world files."""
+"""Small in-code worlds for tests: built through the same validator as world files.
+
+* :func:`small_world` - planar SLAM, a 30 m square loop among 4 landmarks;
+* :func:`small_drone_doc` / :func:`small_drone_world` - the same loop flown by the drone
+  over a hill;
+* :func:`star_sensor_doc` / :func:`star_sensor_world` / :func:`short_star_sensor_world` -
+  the bundled star-sensor world with overrides, and a shortened one.
+"""
 
 from __future__ import annotations
 
+import copy
+import tomllib
 from collections.abc import Mapping, Sequence
+from importlib.resources import files
 from typing import Any
 
-from slam.kinds import world_from_dict
 from slam.kinds.planar.world import World
+from slam.registry import world_from_dict
 
 SQUARE_WAYPOINTS = [[30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]]
 SQUARE_LANDMARKS = [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0], [-6.0, 15.0]]
@@ -52,3 +62,66 @@ def small_world(
         "filters": {"names": list(filters), **(filter_options or {})},
     }
     return world_from_dict(data, name=name)
+
+
+DRONE_FILTERS = ("ekf", "srckf", "srukf", "srcdkf")
+
+
+def small_drone_doc(**sections: Any) -> dict[str, Any]:
+    """A 30 m square loop (counter-clockwise from the origin) among 4 landmarks, one hill.
+
+    Each keyword replaces a top-level key; a dict for a section that is a table merges
+    into it (``terrain={"hill_amplitude_m": 25.0}``).
+    """
+    doc: dict[str, Any] = {
+        "kind": "drone-slam",
+        "description": "Test world: 30 m square loop over a hill, 4 landmarks",
+        "runs": 2,
+        "seed": 0,
+        "map": {"bounds_m": [-20.0, 50.0, -20.0, 50.0],
+                "landmarks": [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0], [-6.0, 15.0]],
+                "waypoints": [[30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]]},
+        "terrain": {"type": "hills", "hill_centres_m": [[15.0, 15.0]], "hill_amplitude_m": 4.0,
+                    "hill_width_m": 6.0, "grid_spacing_m": 3.0},
+        "vehicle": {"loops": 1, "start_xy_m": [0.0, 0.0], "start_heading_deg": 0.0,
+                    "speed_mps": 4.0},
+        "filters": {"names": list(DRONE_FILTERS)},
+        "paper": {"filters": {"srckf": {"pos_err_range_m": {"x": [-0.5, 0.6],
+                                                            "y": [-0.5, 0.2],
+                                                            "z": [-0.5, 0.05]}}}},
+    }
+    for key, value in sections.items():
+        if isinstance(value, dict) and isinstance(doc.get(key), dict):
+            doc[key] = {**doc[key], **value}
+        else:
+            doc[key] = value
+    return doc
+
+
+def small_drone_world(**sections: Any):
+    """:func:`small_drone_doc` validated as the world ``small-drone``."""
+    return world_from_dict(small_drone_doc(**sections), name="small-drone")
+
+
+def star_sensor_doc(**overrides: Any) -> dict[str, Any]:
+    """The bundled star-sensor document with dotted-key overrides (``"gyro.rate_hz"``)."""
+    raw = (files("worlds") / "star-sensor.toml").read_bytes()
+    data = copy.deepcopy(tomllib.loads(raw.decode("utf-8")))
+    for dotted, value in overrides.items():
+        *head, last = dotted.split(".")
+        table = data
+        for key in head:
+            table = table.setdefault(key, {})
+        table[last] = value
+    return data
+
+
+def star_sensor_world(**overrides: Any):
+    """:func:`star_sensor_doc` validated as the world ``test-attitude``."""
+    return world_from_dict(star_sensor_doc(**overrides), name="test-attitude")
+
+
+def short_star_sensor_world(duration: float = 60.0, **overrides: Any):
+    """The star-sensor world cut to ``duration`` seconds (steady state from half of it)."""
+    return star_sensor_world(**{"duration_s": duration,
+                                "scoring.steady_state_from_s": duration / 2, **overrides})

@@ -35,7 +35,7 @@ from estimators import (
     Transition,
     make_filter,
 )
-from estimators.ekf import numerical_jacobian
+from estimators.linearise import numerical_jacobian
 from nav.quaternion import qconj, qexp, qmul, qnormalize, qrotate, qto_dcm, skew
 from nav.spaces import UnitQuaternion
 

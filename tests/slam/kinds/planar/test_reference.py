@@ -1,4 +1,4 @@
-"""Tests of the GTSAM planar SLAM reference (slam/reference.py)."""
+"""Tests of the GTSAM planar SLAM reference (slam/kinds/planar/reference.py)."""
 
 from __future__ import annotations
 

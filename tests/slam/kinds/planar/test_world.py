@@ -1,4 +1,6 @@
-"""World files: the bundled worlds, and the validator's refusals."""
+"""Planar world files (:mod:`slam.kinds.planar.world`): the bundled worlds, and the
+validator's refusals.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from small_worlds import small_world
 
-from slam.kinds import list_worlds, load_world
 from slam.kinds.planar.world import World
+from slam.registry import load_world
+from tests.small_worlds import small_world
 from worlds import WorldError
 
 BUNDLED = ("bailey", "webmap", "densemap")
@@ -39,16 +41,6 @@ def test_bundled_world_loads(name: str) -> None:
         assert np.all((pts[:, 1] >= ymin) & (pts[:, 1] <= ymax))
     assert set(world.filters.names) == {"ekf", "srckf", "srukf", "srcdkf"}
     json.dumps(world.paper)  # passes through to summary.json
-
-
-def test_list_worlds_lists_the_bundled_worlds() -> None:
-    listed = {name: (kind, desc) for name, kind, desc in list_worlds()}
-    assert set(BUNDLED) <= set(listed)
-    for name in BUNDLED:
-        kind, desc = listed[name]
-        assert kind == "planar-slam"
-        assert desc.strip() and "\n" not in desc
-        assert desc == load_world(name).description
 
 
 def test_bailey_world_is_the_papers() -> None:
@@ -99,26 +91,12 @@ def test_bailey_maps_from_data_files() -> None:
     assert web.vehicle.start == (0.0, 0.0, 0.0) and (web.runs, dense.runs) == (20, 10)
 
 
-def test_load_by_path_equals_load_by_name() -> None:
-    import worlds
-
-    path = Path(worlds.__file__).parent / "bailey.toml"
-    by_path, by_name = load_world(path), load_world("bailey")
-    assert by_path.source == str(path)
-    assert dataclasses.replace(by_path, source=by_name.source) == by_name
-
-
 def test_world_is_frozen() -> None:
     w = load_world("bailey")
     with pytest.raises(dataclasses.FrozenInstanceError):
         w.runs = 3  # type: ignore[misc]
     with pytest.raises(ValueError):
         w.map.landmarks[0, 0] = 1.0
-
-
-def test_unknown_world_name() -> None:
-    with pytest.raises(WorldError, match="bailey"):
-        load_world("no-such-world")
 
 
 # --------------------------------------------------------------------------- the validator
@@ -248,15 +226,6 @@ def test_malformed_world_is_refused(
     head, _, last = key.rpartition(".")
     assert (f"[{head}] {last}" if head else last) in text
     assert fragment in text
-
-
-def test_toml_syntax_error_names_file_and_line(tmp_path: Path) -> None:
-    path = write(tmp_path, GOOD.replace("runs = 3", "runs = = 3"))
-    with pytest.raises(WorldError) as info:
-        load_world(path)
-    err = info.value
-    assert err.key is None and err.line == 3
-    assert str(err).startswith(f"{path}:3: invalid TOML")
 
 
 def test_map_file_contents_checked(tmp_path: Path) -> None:

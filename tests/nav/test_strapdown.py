@@ -1,4 +1,6 @@
-"""Strapdown mechanisation (nav.strapdown) and the truth / IMU simulator (nav.imu_sim)."""
+"""Strapdown mechanisation (:mod:`nav.strapdown`): closed-form motions, vectorisation, the
+prefix products, the Γ series, ideal IMU readings, the Earth rate.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from nav.euler import euler_zyx_to_q, q_to_euler_zyx
-from nav.imu_errors import ImuErrors, corrupt_imu
+from nav.euler import euler_zyx_to_q
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate
 from nav.strapdown import (
     SERIES_BELOW,
@@ -21,8 +22,6 @@ from nav.strapdown import (
     mechanise,
     prefix_products,
 )
-from nav.terrain import Terrain
-from slam.kinds.drone.flight import FlightPlan, fly, steer
 
 G = gravity_enu()
 
@@ -132,53 +131,3 @@ def test_earth_rate_keeps_a_body_at_rest_levelled():
     w_b = qrotate(qconj(q0), wie)  # a gyro at rest senses the Earth's rotation
     Q = attitudes(q0, np.tile(w_b, (n, 1)), dt, wie)
     assert np.max(np.linalg.norm(qlog(qmul(qconj(Q), q0)), axis=1)) < 1e-12
-
-
-def plan(**kw) -> FlightPlan:
-    base = dict(waypoints=((30.0, 0.0), (30.0, 30.0), (0.0, 30.0), (0.0, 0.0)),
-                start_xy=(0.0, 0.0), start_heading=0.0, speed=3.0,
-                max_turn_rate=math.radians(25.0), max_turn_accel=math.radians(30.0),
-                steer_gain=1.5, at_waypoint=1.0, loops=1, height_above_ground=5.0,
-                altitude_smoothing_s=1.0, dt=0.01, drag_per_s=0.3)
-    base.update(kw)
-    return FlightPlan(**base)
-
-
-def test_steering_reaches_every_waypoint_with_bounded_turn_rate_and_accel():
-    pl = plan(loops=2)
-    xy, psi, rate, ends = steer(pl)
-    assert len(ends) == 2 and ends[-1] == len(xy) - 1
-    assert np.hypot(*(xy[-1] - pl.waypoints[-1])) < pl.at_waypoint
-    assert np.max(np.abs(rate)) <= pl.max_turn_rate + 1e-12
-    assert np.max(np.abs(np.diff(rate))) <= pl.max_turn_accel * pl.dt + 1e-12
-    with pytest.raises(ValueError, match="not reached"):
-        steer(plan(waypoints=((0.5, 0.2), (30.0, 0.0))), max_duration_s=5.0)
-
-
-def test_flight_over_hills_keeps_height_and_bounded_acceleration():
-    ter = Terrain.hills((-20.0, 50.0, -20.0, 50.0), [[15.0, 0.0], [30.0, 15.0]], 5.0, 6.0,
-                        spacing=1.0)
-    tr = fly(plan(), ter.height, G)
-    agl = tr.p[:, 2] - ter.height(tr.p[:, :2])
-    assert abs(np.mean(agl) - 5.0) < 0.3 and np.min(agl) > 3.5
-    acc = np.diff(tr.v, axis=0) / tr.dt
-    assert np.max(np.linalg.norm(acc, axis=1)) < 3.0
-    # multirotor attitude: nose-down against the drag, banked in the turns
-    e = np.degrees(q_to_euler_zyx(tr.q))
-    assert 3.0 < np.median(e[:, 1]) < 8.0 and np.max(np.abs(e[:, 0])) > 3.0
-    # the truth IS the mechanisation of the error-free readings
-    P, V, Q = mechanise(tr.p[:1], tr.v[:1], tr.q[:1], tr.gyro, tr.accel, tr.dt, G)
-    assert np.allclose(P[0], tr.p[-1], atol=1e-9) and np.allclose(V[0], tr.v[-1], atol=1e-10)
-
-
-def test_corrupt_imu_statistics_and_zero_scale():
-    rng = np.random.default_rng(5)
-    K, dt = 200_000, 0.01
-    z = np.zeros((K, 3))
-    e = ImuErrors(1e-3, 0.0, 2e-3, 0.02, 0.0, 3e-3)
-    log = corrupt_imu(z, z, dt, e, rng)
-    noise = log.gyro - log.bias_gyro[:-1]
-    assert np.allclose(np.std(noise, axis=0), 2e-3 / math.sqrt(dt), rtol=0.02)
-    assert np.allclose(log.bias_gyro, log.bias_gyro[0])  # no random walk asked for
-    clean = corrupt_imu(z, z, dt, e, rng, scale=0.0)
-    assert not np.any(clean.gyro) and not np.any(clean.accel)

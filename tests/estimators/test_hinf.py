@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 from estimators import Cubature, Euclidean, Measurement, Noise, Transition, Unscented
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES, make_filter
 from estimators.hinf import HInfinityFilter, RiccatiConditionError, riccati_min_eigenvalue
 from estimators.sigma import SigmaPointFilter
+from tests.linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 # --------------------------------------------------------------------------- nonlinear model
 # seed 000: state [pitch α, yaw β] driven by gyro increments, axial magnetometer reading

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 from estimators import (
     FILTER_NAMES,
@@ -26,8 +25,9 @@ from estimators import (
     Unscented,
     make_filter,
 )
-from estimators.ekf import numerical_jacobian
+from estimators.linearise import numerical_jacobian
 from estimators.sigma import SigmaPointFilter
+from tests.linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 
 # --------------------------------------------------------------------------- linear model

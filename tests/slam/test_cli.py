@@ -1,4 +1,4 @@
-"""The ``slam`` command line end to end on small worlds."""
+"""The ``slam`` command line (:mod:`slam.cli`) end to end on small worlds."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import pytest
 from click.testing import CliRunner
 
 from slam import cli
-from slam.render.tables import summary_json
 
 SMALL_WORLD = """
 kind = "planar-slam"
@@ -119,35 +118,3 @@ def test_worlds_lists_the_bundled_worlds():
     assert res.exit_code == 0
     for name in ("bailey", "webmap", "densemap"):
         assert re.search(rf"^{name}\s+planar-slam", res.output, re.M)
-
-
-def _strip_timings(obj):
-    """Drop wall-clock fields: the only keys that may differ between executors."""
-    if isinstance(obj, dict):
-        return {k: _strip_timings(v) for k, v in obj.items() if not k.startswith("time")}
-    return obj
-
-
-def test_dask_local_cluster_matches_the_local_pool():
-    distributed = pytest.importorskip("dask.distributed")
-    from small_worlds import small_world
-
-    from slam.campaign import dask_mapper, run_campaign
-
-    world = small_world(runs=3, filters=("ekf", "srckf"))
-    local = run_campaign(world, workers=2)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
-        mapper, client = dask_mapper(cluster.scheduler_address)
-        try:
-            seen = []
-            remote = run_campaign(world, mapper=mapper, progress=seen.append)
-        finally:
-            client.close()
-    assert len(seen) == 3
-    assert summary_json(_strip_timings(remote.summary)) == summary_json(
-        _strip_timings(local.summary))
-    # and more than the summary: every run's per-step errors are bit-identical
-    for a, b in zip(local.outcomes, remote.outcomes):
-        for name in a.scores:
-            assert a.scores[name].err.tobytes() == b.scores[name].err.tobytes()

@@ -1,12 +1,11 @@
-"""Seed 002: HoMM sigma points, the eigenvector quaternion mean, the pseudo-observation.
+"""Seed 002: the high-order moment-matching (HoMM) sigma points and the HoMM-UKF.
 
 * the HoMM rule reproduces mean, covariance, third and fourth moments (Gaussian and
   given skewness/kurtosis), is Julier's κ = 3 − n set for a Gaussian, and its filter
-  equals the Kalman filter on linear models (additive and eq. 22-23 augmented noise);
-* the eigenvector mean is exact on symmetric sets, sign-blind, and agrees with the
-  iterative chart mean on tight clouds;
-* the pseudo-observation vanishes on the true attitude and its noise-separation
-  covariance matches Monte Carlo.
+  equals the Kalman filter on linear models (additive and eq. 22-23 augmented noise).
+
+(The eigenvector quaternion mean and the pseudo-observation of the same seed are tested
+in tests/nav/test_quaternion_mean.py and tests/nav/test_pseudo_observation.py.)
 """
 
 from __future__ import annotations
@@ -18,15 +17,6 @@ from estimators import Cubature, Euclidean, Gaussian, Measurement, Noise, Transi
 from estimators.filters import FILTER_NAMES, make_filter
 from estimators.homm import HighOrderMoment, augmented_rule, standardised_moments
 from estimators.sigma import SigmaPointFilter, draw, sigma_predict
-from nav.pseudo_observation import (
-    pseudo_observation_matrix,
-    pseudo_observation_model,
-    pseudo_observation_noise,
-    xi_matrix,
-)
-from nav.quaternion import qexp, qmul, qnormalize, qto_dcm
-from nav.quaternion_mean import EigenMeanQuaternion, eigen_mean
-from nav.spaces import UnitQuaternion
 
 MEAN = np.array([0.3, -1.2, 2.0, 0.7])
 SIG = np.array([1.5, 0.4, 2.0, 0.8])
@@ -204,139 +194,3 @@ def test_hommukf_is_registered():
     assert "hommukf" in FILTER_NAMES
     f = make_filter("hommukf")
     assert isinstance(f.rule, HighOrderMoment) and f.form == "dense"
-
-
-# --------------------------------------------------------------------------- quaternion mean
-def _cloud(q0, spread, rng, m=13):
-    d = rng.normal(size=(m, 3)) * spread + rng.normal(size=3) * spread  # off-centre
-    w = rng.uniform(0.2, 1.0, m)
-    return qmul(q0, qexp(d)), w / w.sum()
-
-
-def test_eigen_mean_of_symmetric_sets_is_the_centre():
-    rng = np.random.default_rng(4)
-    q0 = qnormalize(rng.normal(size=4))
-    d = 0.3 * np.vstack([np.zeros(3), np.eye(3), -np.eye(3)])
-    pts = qmul(q0, qexp(d))
-    for w0 in (1 / 7, -0.5):  # positive, and a negative centre weight (unscented-like)
-        w = np.r_[w0, np.full(6, (1 - w0) / 6)]
-        np.testing.assert_allclose(eigen_mean(pts, w), q0, atol=1e-14)
-
-
-def test_eigen_mean_ignores_quaternion_signs():
-    rng = np.random.default_rng(5)
-    q0 = qnormalize(rng.normal(size=4))
-    pts, w = _cloud(q0, 0.2, rng)
-    ref = eigen_mean(pts, w)
-    flips = np.where(rng.uniform(size=len(w)) < 0.5, -1.0, 1.0)
-    flips[np.argmax(w)] = 1.0
-    np.testing.assert_allclose(eigen_mean(pts * flips[:, None], w), ref, atol=1e-14)
-    flips[np.argmax(w)] = -1.0  # the result takes the sign of the largest-weight point
-    np.testing.assert_allclose(eigen_mean(pts * flips[:, None], w), -ref, atol=1e-14)
-    # naive averaging of ambient coordinates is wrecked by the flips
-    naive = qnormalize(w @ (pts * flips[:, None]))
-    assert abs(abs(naive @ ref) - 1.0) > 1e-3
-
-
-def test_eigen_mean_agrees_with_iterative_chart_mean_for_tight_clouds():
-    """They differ at O(σ³): ~5e-13 rad at σ = 1e-4, ~5e-7 rad at σ = 1e-2."""
-    rng = np.random.default_rng(6)
-    U = UnitQuaternion()
-    q0 = qnormalize(rng.normal(size=4))
-    for _ in range(10):
-        pts, w = _cloud(q0, 1e-4, rng)
-        assert np.linalg.norm(U.local(U.mean(pts, w), eigen_mean(pts, w))) < 1e-9
-    pts, w = _cloud(q0, 0.1, rng)
-    assert np.linalg.norm(U.local(U.mean(pts, w), eigen_mean(pts, w))) > 1e-6
-
-
-def test_eigen_mean_batches_and_rejects_ambiguous_sets():
-    rng = np.random.default_rng(7)
-    a, wa = _cloud(qnormalize(rng.normal(size=4)), 0.1, rng)
-    b, wb = _cloud(qnormalize(rng.normal(size=4)), 0.1, rng)
-    out = eigen_mean(np.stack([a, b]), np.stack([wa, wb]))
-    np.testing.assert_allclose(out, np.stack([eigen_mean(a, wa), eigen_mean(b, wb)]),
-                               atol=1e-15)
-    q = qnormalize(rng.normal(size=4))
-    opposite = np.stack([q, qmul(q, qexp([np.pi, 0.0, 0.0]))])  # 180° apart
-    with pytest.raises(ArithmeticError, match="not unique"):
-        eigen_mean(opposite, np.array([0.5, 0.5]))
-
-
-def test_eigen_mean_space_in_a_filter_with_pseudo_observations():
-    """Static attitude, two reference vectors: HoMM-UKF on EigenMeanQuaternion converges."""
-    rng = np.random.default_rng(8)
-    q_true = qnormalize(rng.normal(size=4))
-    refs = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
-    sigma = 0.01
-    space = EigenMeanQuaternion()
-    assert space.retract(q_true, [0.1, 0.0, 0.0]) == pytest.approx(
-        UnitQuaternion().retract(q_true, [0.1, 0.0, 0.0]))
-    filt = SigmaPointFilter("hommukf", HighOrderMoment(), "dense")
-    tr = Transition(lambda X, u: X, Noise.from_cov(1e-8 * np.eye(3)))
-    b = filt.init(qmul(q_true, qexp(np.deg2rad([10.0, -8.0, 15.0]))), space,
-                  cov=np.deg2rad(20.0) ** 2 * np.eye(3))
-    for _ in range(30):
-        b = filt.predict(b, tr)
-        B = refs @ qto_dcm(q_true) + rng.normal(0.0, sigma, refs.shape)  # rows: Cᵀ R + μ
-        me = pseudo_observation_model(B, refs, sigma, b.mean, b.cov)
-        b, _ = filt.update(b, me, np.zeros(me.noise.dim))
-    err = np.linalg.norm(space.local(q_true, b.mean))
-    assert err < 3.0 * np.sqrt(np.trace(b.cov)) and err < 0.01
-
-
-# --------------------------------------------------------------------------- pseudo-observation
-def test_pseudo_observation_vanishes_on_true_attitude():
-    rng = np.random.default_rng(9)
-    q = qnormalize(rng.normal(size=(20, 4)))
-    R = rng.normal(size=(20, 3))
-    B = np.einsum("kji,kj->ki", qto_dcm(q), R)  # body = C(q)ᵀ nav
-    G = pseudo_observation_matrix(B, R)
-    assert np.max(np.abs(np.einsum("kij,kj->ki", G, q))) < 1e-12
-    # ... and not on a wrong one; G is skew with rank 2
-    assert np.min(np.linalg.norm(np.einsum("kij,kj->ki", G, np.roll(q, 1, axis=0)),
-                                 axis=1)) > 1e-3
-    np.testing.assert_allclose(G, -np.swapaxes(G, 1, 2), atol=0)
-    assert np.all(np.linalg.matrix_rank(G) == 2)
-    # the noisy reading enters as ½ q ⊗ [0, μ]
-    mu = rng.normal(size=3)
-    np.testing.assert_allclose(pseudo_observation_matrix(B[0] + mu, R[0]) @ q[0],
-                               0.5 * xi_matrix(q[0]) @ mu, atol=1e-14)
-
-
-def _noise_samples(Q, Pmu, rng):
-    M = rng.multivariate_normal(np.zeros(3), Pmu, size=len(Q))
-    return -0.5 * qmul(Q, np.column_stack([np.zeros(len(Q)), M]))
-
-
-def test_noise_separation_formula_matches_monte_carlo():
-    rng = np.random.default_rng(10)
-    q0 = qnormalize(rng.normal(size=4))
-    Pmu = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, -0.02], [0.0, -0.02, 0.01]])
-    Q = qnormalize(q0 + 0.35 * rng.normal(size=(100_000, 4)))  # a wide attitude cloud
-    V = _noise_samples(Q, Pmu, rng)
-    mc = np.cov(V.T, bias=True)
-    formula = pseudo_observation_noise(Q.mean(axis=0), np.cov(Q.T, bias=True), Pmu)
-    rel = np.linalg.norm(formula - mc) / np.linalg.norm(mc)
-    assert rel < 0.05
-    # the state-uncertainty term matters here: leaving it out misses by far more than 5 %
-    without = pseudo_observation_noise(Q.mean(axis=0), None, Pmu)
-    assert np.linalg.norm(without - mc) / np.linalg.norm(mc) > 0.1
-
-
-def test_pseudo_observation_model_noise_at_prior_matches_monte_carlo():
-    rng = np.random.default_rng(11)
-    q0 = qnormalize(rng.normal(size=4))
-    P = np.diag([0.15, 0.1, 0.2]) ** 2
-    sigma = np.array([0.02, 0.05, 0.03])
-    refs = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
-    me = pseudo_observation_model(refs @ qto_dcm(q0), refs, sigma, q0, P)
-    assert me.noise.dim == 6
-    n = 100_000
-    Q = qmul(q0, qexp(rng.multivariate_normal(np.zeros(3), P, size=n)))
-    T = xi_matrix(q0).T
-    V = np.hstack([_noise_samples(Q, np.diag(sigma**2), rng) @ T.T for _ in refs])
-    mc = np.cov(V.T, bias=True)
-    assert np.linalg.norm(me.noise.cov - mc) / np.linalg.norm(mc) < 0.05
-    # h is the projected G q: zero at the true attitude
-    np.testing.assert_allclose(me.h(q0[None, :]), 0.0, atol=1e-15)

@@ -1,0 +1,1 @@
+"""Golden summaries of small fixed-seed campaigns (see ``regenerate.py``)."""

@@ -1,0 +1,51 @@
+"""``slam run --log FILE`` end to end: a bad log exits 2 naming file and line; a good one
+writes a strict summary and the report.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from slam.cli import main
+from slam.kinds.recorded.log import (
+    format_odometry_log,
+)
+from tests.slam.kinds.recorded.synthetic import synthetic_log
+
+GOOD = "ODOMETRY 0 1 1 0 0 1e-4 0 0 4e-6 0 4e-6\n"
+
+
+def test_cli_bad_log_exits_2_with_file_line_and_writes_nothing(tmp_path):
+    bad = tmp_path / "bad.txt"
+    bad.write_text(GOOD + "LANDMARK 1 7 3 x 0.4 0 0.4\n")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", "--log", str(bad), "--out", str(out)])
+    assert res.exit_code == 2
+    assert f"{bad}:2:" in res.output and "not a number" in res.output
+    assert not out.exists()
+    res = CliRunner().invoke(main, ["run", "--log", str(bad), "--runs", "3"])
+    assert res.exit_code == 2 and "--runs does not apply to --log" in res.output
+
+
+
+def test_cli_runs_a_log_and_writes_strict_summary(tmp_path):
+    log = synthetic_log(np.random.default_rng(2), n_poses=30, n_landmarks=4)
+    path = tmp_path / "small.txt"
+    path.write_text(format_odometry_log(log))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", "--log", str(path), "--out", str(out),
+                                    "--filters", "ekf,srckf"])
+    assert res.exit_code == 0, res.output
+    text = (out / "summary.json").read_text()
+    data = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict {c}"))
+    assert data["mode"] == "local" and set(data["filters"]) == {"ekf", "srckf"}
+    assert data["poses"] == 30 and "objective" in data["reference"]["gtsam"]
+    assert "landmark_dist_to_ref_max_m" in data["filters"]["srckf"]
+    assert "srckf" in res.output and "gtsam" in res.output
+    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md", "summary.json"]
+    assert Path(path).exists()

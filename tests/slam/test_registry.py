@@ -1,0 +1,58 @@
+"""The kind registry (:mod:`slam.registry`): the built-in kinds, listing the bundled worlds,
+dispatching a world document to its kind."""
+
+from __future__ import annotations
+
+import pytest
+
+from slam.kind import Kind
+from slam.registry import KINDS, get_kind, list_worlds, load_world, log_kind, world_from_dict
+from worlds import WorldError
+
+BUNDLED = ("bailey", "webmap", "densemap")
+
+
+def test_list_worlds_lists_the_bundled_worlds() -> None:
+    listed = {name: (kind, desc) for name, kind, desc in list_worlds()}
+    assert set(BUNDLED) <= set(listed)
+    for name in BUNDLED:
+        kind, desc = listed[name]
+        assert kind == "planar-slam"
+        assert desc.strip() and "\n" not in desc
+        assert desc == load_world(name).description
+
+
+def test_the_built_in_kinds_are_registered() -> None:
+    assert {"planar-slam", "drone-slam", "attitude"} <= set(KINDS)
+    for name, kind in KINDS.items():
+        assert isinstance(kind, Kind) and kind.name == name and get_kind(name) is kind
+    with pytest.raises(KeyError):
+        get_kind("submarine")
+    # exactly one kind reads recorded logs, and it refuses world files
+    readers = [k for k in KINDS.values() if k.open_log is not None]
+    assert readers == [log_kind()]
+    with pytest.raises(WorldError, match="--log"):
+        world_from_dict({"kind": log_kind().name}, name="x")
+
+
+def test_every_bundled_world_loads_through_its_kind() -> None:
+    for name, kind, _ in list_worlds():
+        assert kind in KINDS, name
+        assert load_world(name).kind == kind
+
+
+@pytest.mark.parametrize(("data", "fragment"), [
+    ({}, "kind: missing (required; one of: "),
+    ({"kind": "submarine"}, 'kind = "submarine": unknown kind; known: '),
+    ({"kind": 3}, "kind = 3: unknown kind"),
+])
+def test_a_document_without_a_known_kind_names_the_kinds(data, fragment) -> None:
+    with pytest.raises(WorldError) as info:
+        world_from_dict(data, name="w", source="w.toml")
+    text = str(info.value)
+    assert info.value.key == "kind" and text.startswith("w.toml: ") and fragment in text
+    # the message lists the kinds a world file can have (not the log reader)
+    known = text.rsplit(": ", 1)[-1].rstrip(")")
+    assert "planar-slam" in known and log_kind().name not in known
+    with pytest.raises(WorldError, match="must be a table"):
+        world_from_dict([], name="w")  # type: ignore[arg-type]

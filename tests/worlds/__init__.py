@@ -1,0 +1,1 @@
+"""Tests of :mod:`worlds`: finding and reading world files, the schema engine."""
