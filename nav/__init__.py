@@ -2,54 +2,13 @@
 
 See :mod:`nav.quaternion` for the fixed conventions (Hamilton, scalar-first,
 ``q_nb`` maps body to navigation, right/body-frame attitude errors, radians).
+The package re-exports the rotation functions of :mod:`nav.quaternion` and
+:mod:`nav.euler` and the :class:`~nav.spaces.UnitQuaternion` space.
 """
 
-from .euler import (
-    dcm_nb_from_paper,
-    euler_zxy_to_q,
-    euler_zyx_to_q,
-    q_from_paper,
-    q_to_euler_zxy,
-    q_to_euler_zyx,
-    q_to_paper,
-)
-from .quaternion import (
-    dcm_to_q,
-    dcm_to_rotvec,
-    omega_matrix,
-    qconj,
-    qexp,
-    qlog,
-    qmul,
-    qnormalize,
-    qpropagate,
-    qrotate,
-    qto_dcm,
-    rotvec_to_dcm,
-    skew,
-)
-from .spaces import UnitQuaternion
+from . import euler, quaternion
+from .euler import *  # noqa: F403  (the names in euler.__all__)
+from .quaternion import *  # noqa: F403  (the names in quaternion.__all__)
+from .spaces import UnitQuaternion as UnitQuaternion
 
-__all__ = [
-    "UnitQuaternion",
-    "dcm_nb_from_paper",
-    "dcm_to_q",
-    "dcm_to_rotvec",
-    "euler_zxy_to_q",
-    "euler_zyx_to_q",
-    "omega_matrix",
-    "q_from_paper",
-    "q_to_euler_zxy",
-    "q_to_euler_zyx",
-    "q_to_paper",
-    "qconj",
-    "qexp",
-    "qlog",
-    "qmul",
-    "qnormalize",
-    "qpropagate",
-    "qrotate",
-    "qto_dcm",
-    "rotvec_to_dcm",
-    "skew",
-]
+__all__ = sorted(["UnitQuaternion", *euler.__all__, *quaternion.__all__])

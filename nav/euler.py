@@ -127,14 +127,7 @@ def q_to_euler_zyx(q: ArrayLike) -> Array:
     At gimbal lock (:math:`\theta = \pm\pi/2`) roll is set to 0.  Invariant to
     the sign and (positive) scale of ``q``.
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-        ``[roll, pitch, yaw]`` (rad).
+    Shapes: ``q`` (..., 4) → (..., 3), ``[roll, pitch, yaw]`` (rad).
     """
     q = np.asarray(q, dtype=np.float64)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
@@ -184,14 +177,7 @@ def q_to_euler_zxy(q: ArrayLike) -> Array:
 
     At gimbal lock (:math:`\alpha = \pm\pi/2`) pitch is set to 0.
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-        ``[roll, pitch, yaw]`` = ``[α, β, γ]`` (rad).
+    Shapes: ``q`` (..., 4) → (..., 3), ``[roll, pitch, yaw]`` = ``[α, β, γ]`` (rad).
     """
     q = np.asarray(q, dtype=np.float64)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
@@ -221,14 +207,7 @@ def q_from_paper(q_paper: ArrayLike) -> Array:
     the paper's quaternion *is* ``q_nb`` component for component: the conversion is the
     identity (a float copy).  This fact is checked in ``tests/test_rotations.py``.
 
-    Parameters
-    ----------
-    q_paper : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 4)
-        ``q_nb`` ``[w, x, y, z]`` (a new array).
+    Shapes: ``q_paper`` (..., 4) → (..., 4), ``q_nb`` ``[w, x, y, z]`` (a new array).
     """
     return np.array(q_paper, dtype=np.float64, copy=True)
 
@@ -238,13 +217,7 @@ def q_to_paper(q: ArrayLike) -> Array:
 
     Inverse of :func:`q_from_paper`, hence also the identity on components (a copy).
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 4)
+    Shapes: ``q`` (..., 4) → (..., 4).
     """
     return np.array(q, dtype=np.float64, copy=True)
 
@@ -255,13 +228,7 @@ def dcm_nb_from_paper(C_n_b: ArrayLike) -> Array:
     :math:`C_{nb} = (C_n^b)^T`, transposing the last two axes.  Equivalently
     ``qto_dcm(q_from_paper(q_paper)) == dcm_nb_from_paper(C_n_b(q_paper))``.
 
-    Parameters
-    ----------
-    C_n_b : array_like, shape (..., 3, 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
+    Shapes: ``C_n_b`` (..., 3, 3) → (..., 3, 3).
     """
     return np.array(np.swapaxes(np.asarray(C_n_b, dtype=np.float64), -1, -2), copy=True)
 

@@ -99,13 +99,7 @@ def xi_matrix(q: ArrayLike) -> Array:
     For unit ``q`` its columns are orthonormal and orthogonal to ``q``:
     :math:`\Xi^\top\Xi = I_3`, :math:`\Xi\Xi^\top = I_4 - q q^\top`.
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 4, 3)
+    Shapes: ``q`` (..., 4) → (..., 4, 3).
     """
     q = np.asarray(q, dtype=np.float64)
     top = -q[..., None, 1:]

@@ -29,6 +29,7 @@ Array = NDArray[np.float64]
 SMALL_ANGLE = 1e-4
 
 __all__ = [
+    "points_and_weights",
     "SMALL_ANGLE",
     "dcm_to_q",
     "dcm_to_rotvec",
@@ -83,13 +84,7 @@ def skew(v: ArrayLike) -> Array:
         [v]_\times = \begin{bmatrix} 0 & -v_3 & v_2 \\ v_3 & 0 & -v_1 \\
         -v_2 & v_1 & 0 \end{bmatrix}, \qquad [v]_\times u = v \times u.
 
-    Parameters
-    ----------
-    v : array_like, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
+    Shapes: ``v`` (..., 3) → (..., 3, 3).
     """
     v = _f(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
@@ -112,14 +107,7 @@ def qmul(p: ArrayLike, q: ArrayLike) -> Array:
 
     With the body-to-navigation convention, :math:`C(p \otimes q) = C(p)\,C(q)`.
 
-    Parameters
-    ----------
-    p, q : array_like, shape (..., 4)
-        Broadcast against each other.
-
-    Returns
-    -------
-    ndarray, shape (..., 4)
+    Shapes: ``p``, ``q`` (..., 4), broadcast against each other → (..., 4).
     """
     p, q = _f(p), _f(q)
     outer = p[..., :, None] * q[..., None, :]  # p_i q_j, then one (16, 4) matmul
@@ -129,13 +117,7 @@ def qmul(p: ArrayLike, q: ArrayLike) -> Array:
 def qconj(q: ArrayLike) -> Array:
     r"""Conjugate :math:`q^* = [w, -x, -y, -z]` (the inverse of a unit quaternion).
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 4)
+    Shapes: ``q`` (..., 4) → (..., 4).
     """
     return _f(q) * np.array([1.0, -1.0, -1.0, -1.0])
 
@@ -223,14 +205,7 @@ def qlog(q: ArrayLike) -> Array:
     :math:`s = \lVert v\rVert / w`.  The formula is invariant to positive scaling of
     ``q``, so a slightly non-unit quaternion is treated as its normalisation.
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-        Rotation vector with norm in :math:`[0, \pi]`.
+    Shapes: ``q`` (..., 4) → (..., 3), Rotation vector with norm in :math:`[0, \pi]`.
     """
     q = _f(q)
     v = q[..., 1:]
@@ -296,13 +271,7 @@ def qto_dcm(q: ArrayLike) -> Array:
     Using :math:`s = 2/\lVert q\rVert^2` makes the result orthogonal for any non-zero
     ``q`` (the DCM of the normalised quaternion).  For ``q_nb`` this is ``C_nb``.
 
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
+    Shapes: ``q`` (..., 4) → (..., 3, 3).
     """
     q = _f(q)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
@@ -341,14 +310,7 @@ def dcm_to_q(C: ArrayLike) -> Array:
     The branch is chosen per element with ``argmax``.  A slightly non-orthogonal
     ``C`` yields a unit quaternion close to it.
 
-    Parameters
-    ----------
-    C : array_like, shape (..., 3, 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 4)
-        Unit quaternion with non-negative scalar part.
+    Shapes: ``C`` (..., 3, 3) → (..., 4), Unit quaternion with non-negative scalar part.
     """
     C = _f(C)
     c00, c01, c02 = C[..., 0, 0], C[..., 0, 1], C[..., 0, 2]
@@ -374,13 +336,7 @@ def dcm_to_q(C: ArrayLike) -> Array:
 def rotvec_to_dcm(rotvec: ArrayLike) -> Array:
     r"""Rotation matrix :math:`C(\mathrm{Exp}(\theta))` (Rodrigues), via :func:`qexp`.
 
-    Parameters
-    ----------
-    rotvec : array_like, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
+    Shapes: ``rotvec`` (..., 3) → (..., 3, 3).
     """
     return qto_dcm(qexp(rotvec))
 
@@ -390,13 +346,7 @@ def dcm_to_rotvec(C: ArrayLike) -> Array:
 
     Computed as ``qlog(dcm_to_q(C))``.
 
-    Parameters
-    ----------
-    C : array_like, shape (..., 3, 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
+    Shapes: ``C`` (..., 3, 3) → (..., 3).
     """
     return qlog(dcm_to_q(C))
 
@@ -412,13 +362,7 @@ def omega_matrix(omega: ArrayLike) -> Array:
     so the attitude kinematics :math:`\dot q = \tfrac12 q \otimes [0, \omega]` read
     :math:`\dot q = \tfrac12 \Omega(\omega)\,q`.
 
-    Parameters
-    ----------
-    omega : array_like, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 4, 4)
+    Shapes: ``omega`` (..., 3) → (..., 4, 4).
     """
     om = _f(omega)
     top = np.concatenate([np.zeros_like(om[..., :1]), -om], axis=-1)[..., None, :]
@@ -466,3 +410,16 @@ def qpropagate(q: ArrayLike, omega: ArrayLike, dt: ArrayLike) -> Array:
     """
     dtheta = _f(omega) * _f(dt)[..., None]
     return qnormalize(qmul(q, qexp(dtheta)))
+
+
+def points_and_weights(points: ArrayLike, weights: ArrayLike) -> tuple[Array, Array, int]:
+    """``(points (..., m, 4), weights (..., m), m)`` as float arrays, shapes checked
+    (``ValueError`` naming the shape otherwise)."""
+    pts = np.asarray(points, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    if pts.ndim < 2 or pts.shape[-1] != 4:
+        raise ValueError(f"points must have shape (..., m, 4), got {pts.shape}")
+    m = pts.shape[-2]
+    if w.ndim < 1 or w.shape[-1] != m:
+        raise ValueError(f"weights must have shape (..., {m}), got {w.shape}")
+    return pts, w, m

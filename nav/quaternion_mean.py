@@ -39,11 +39,12 @@ and geodesic costs agree to fourth order in the angles).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .quaternion import points_and_weights
 from .spaces import UnitQuaternion
 
 Array = NDArray[np.float64]
@@ -77,13 +78,7 @@ def eigen_mean(points: ArrayLike, weights: ArrayLike, gap_tol: float = 1e-12) ->
     ArithmeticError
         If the largest eigenvalue is not simple (the mean is not unique).
     """
-    pts = np.asarray(points, dtype=np.float64)
-    w = np.asarray(weights, dtype=np.float64)
-    if pts.ndim < 2 or pts.shape[-1] != 4:
-        raise ValueError(f"points must have shape (..., m, 4), got {pts.shape}")
-    m = pts.shape[-2]
-    if w.ndim < 1 or w.shape[-1] != m:
-        raise ValueError(f"weights must have shape (..., {m}), got {w.shape}")
+    pts, w, m = points_and_weights(points, weights)
     batch = np.broadcast_shapes(pts.shape[:-2], w.shape[:-1])
     pts = np.broadcast_to(pts, batch + (m, 4))
     w = np.broadcast_to(w, batch + (m,))
@@ -105,31 +100,15 @@ def eigen_mean(points: ArrayLike, weights: ArrayLike, gap_tol: float = 1e-12) ->
 
 
 @dataclass(frozen=True)
-class EigenMeanQuaternion:
+class EigenMeanQuaternion(UnitQuaternion):
     """:class:`nav.spaces.UnitQuaternion` whose :meth:`mean` is :func:`eigen_mean`.
 
-    ``retract`` and ``local`` are delegated to :class:`~nav.spaces.UnitQuaternion`
-    (right perturbation :math:`q \\otimes \\mathrm{Exp}(\\delta)`); the mean is closed-form
-    (one 4x4 symmetric eigen-decomposition, no iteration).
+    ``retract`` and ``local`` are the parent's (right perturbation
+    :math:`q \\otimes \\mathrm{Exp}(\\delta)`); the mean is closed-form (one 4x4 symmetric
+    eigen-decomposition, no iteration).
     """
 
     gap_tol: float = 1e-12
-    _chart: UnitQuaternion = field(default_factory=UnitQuaternion, init=False, repr=False,
-                                   compare=False)
-
-    @property
-    def ambient_dim(self) -> int:
-        return 4
-
-    @property
-    def dim(self) -> int:
-        return 3
-
-    def retract(self, x: ArrayLike, delta: ArrayLike) -> Array:
-        return self._chart.retract(x, delta)
-
-    def local(self, x: ArrayLike, y: ArrayLike) -> Array:
-        return self._chart.local(x, y)
 
     def mean(self, points: ArrayLike, weights: ArrayLike) -> Array:
         return eigen_mean(points, weights, self.gap_tol)

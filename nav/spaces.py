@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .quaternion import qconj, qexp, qlog, qmul, qnormalize
+from .quaternion import points_and_weights, qconj, qexp, qlog, qmul, qnormalize
 
 Array = NDArray[np.float64]
 
@@ -80,14 +80,7 @@ class UnitQuaternion:
         The result has norm :math:`\le \pi`, and
         ``local(x, retract(x, δ)) == δ`` for :math:`|\delta| < \pi`.
 
-        Parameters
-        ----------
-        x, y : array_like, shape (..., 4)
-            Broadcast against each other.
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
+        Shapes: ``x``, ``y`` (..., 4), broadcast against each other → (..., 3).
         """
         return qlog(qmul(qconj(x), y))
 
@@ -131,13 +124,7 @@ class UnitQuaternion:
         ArithmeticError
             If the iteration has not converged after ``max_iter`` steps.
         """
-        pts = np.asarray(points, dtype=np.float64)
-        w = np.asarray(weights, dtype=np.float64)
-        if pts.ndim < 2 or pts.shape[-1] != 4:
-            raise ValueError(f"points must have shape (..., m, 4), got {pts.shape}")
-        m = pts.shape[-2]
-        if w.ndim < 1 or w.shape[-1] != m:
-            raise ValueError(f"weights must have shape (..., {m}), got {w.shape}")
+        pts, w, m = points_and_weights(points, weights)
         if pts.ndim == 2 and w.ndim == 1:
             return self._mean_one(pts, w)
         batch = np.broadcast_shapes(pts.shape[:-2], w.shape[:-1])
