@@ -36,15 +36,16 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
                      gates=(fs.gate_accept, fs.gate_new), epoch_steps=period, mode=fs.mode)
         scores[name] = reduce_run(name, r.poses, r.pose_cov, truth, r.landmark_ids,
                                   r.landmarks, lms, r.nis, r.nis_dof, r.time_s, r.diverged,
-                                  r.failure)
+                                  r.failure, nis_epoch=r.nis_epoch, map_series=r.map_series)
         if keep_tracks:
             tracks[name] = Track(name, r.poses, r.pose_cov, r.landmark_ids, r.landmarks,
                                  r.landmark_cov)
     t0 = time.perf_counter()
-    odo, odo_cov = dead_reckoning(log, steps)
+    odo, odo_cov, odo_failure = dead_reckoning(log, steps)
     scores[ODOMETRY] = reduce_run(ODOMETRY, odo, odo_cov, truth, np.zeros(0, int),
                                   np.zeros((0, 2)), lms, np.zeros(0), np.zeros(0, int),
-                                  time.perf_counter() - t0)
+                                  time.perf_counter() - t0, odo_failure is not None,
+                                  odo_failure)
     if keep_tracks:
         tracks[ODOMETRY] = Track(ODOMETRY, odo, odo_cov, np.zeros(0, int), np.zeros((0, 2)),
                                  np.zeros((0, 2, 2)))

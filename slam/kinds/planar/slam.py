@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators import BlockLayout, Gaussian, wrap_angle
+from estimators import BlockLayout, Gaussian, make_filter, wrap_angle
 from estimators.linalg import Array
+from estimators.loop import run_epochs
 from estimators.models import Belief, Transition
 from slam.kinds.planar.log import PlanarLog
 from slam.kinds.planar.models import (
@@ -72,7 +73,7 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
         observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
         observe=lambda slots, index: observation_model(slots, obs_cov),
         augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
-        layout=PLANAR_LAYOUT, truth=log.truth, nearest=nearest)
+        layout=PLANAR_LAYOUT, truth=log.truth, nearest=nearest, true_landmarks=log.landmarks)
 
 
 def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
@@ -96,20 +97,25 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
                        diverge_m=diverge_m, filter_params=filter_params)
 
 
-def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array]:
-    """Odometry only: the EKF prediction of the vehicle from the noisy controls.
+def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array, str | None]:
+    """Odometry only: the EKF prediction of the vehicle from the noisy controls, through the
+    one filter loop with no measurements.
 
-    Returns poses (E, 3) and covariances (E, 3, 3) at the epochs ``steps``.
+    Returns poses (E, 3) and covariances (E, 3, 3) at the epochs ``steps`` (NaN after a
+    numerical failure) and the failure's reason (``None`` if none).
     """
-    from estimators.ekf import ekf_predict
+    E = len(steps)
+    poses, covs = np.full((E, 3), np.nan), np.full((E, 3, 3), np.nan)
 
-    b = Gaussian(np.asarray(log.x0, dtype=float), np.asarray(log.P0, dtype=float),
-                 state_space(0))
-    poses, covs = np.empty((len(steps), 3)), np.empty((len(steps), 3, 3))
-    poses[0], covs[0] = b.mean, b.cov
-    for e in range(1, len(steps)):
-        k0, k1 = int(steps[e - 1]), int(steps[e])
-        motion = motion_model(log.dt, log.wheelbase, log.control_cov, k1 - k0)
-        b = ekf_predict(b, motion, log.controls[k0:k1])
+    def record(e: int, b: Belief) -> None:
         poses[e], covs[e] = b.mean, b.cov
-    return poses, covs
+
+    def transition(e: int, b: Belief) -> tuple[Transition, Array]:
+        k0, k1 = int(steps[e - 1]), int(steps[e])
+        return motion_model(log.dt, log.wheelbase, log.control_cov, k1 - k0), log.controls[k0:k1]
+
+    b0 = Gaussian(np.asarray(log.x0, dtype=float), np.asarray(log.P0, dtype=float),
+                  state_space(0))
+    out = run_epochs(make_filter("ekf"), b0, E, transition=transition, record=record,
+                     correct=lambda e, b: (b, []))
+    return poses, covs, out.failure

@@ -51,7 +51,8 @@ def monte_carlo(name: str, runs: int = MC_RUNS, noise_scale: float = 1.0):
         r = run_slam(log, name, noise_scale=noise_scale)
         assert not r.diverged, r.failure
         e = pose_errors(r.poses, log.truth[r.steps])
-        odo, _ = dead_reckoning(log, r.steps)
+        odo, _, failure = dead_reckoning(log, r.steps)
+        assert failure is None
         out.append((r, np.hypot(e[:, 0], e[:, 1]), nees_series(e, r.pose_cov),
                     np.hypot(*(odo[:, :2] - log.truth[r.steps, :2]).T)))
     return out
