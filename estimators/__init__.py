@@ -1,6 +1,7 @@
 """Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
 
 from .filters import FILTER_NAMES, ROBUST_FILTER_NAMES, Filter, make_filter
+from .finite import NonFiniteError
 from .hinf import HInfinityFilter, RiccatiConditionError
 from .homm import HighOrderMoment
 from .linalg import NotPositiveDefiniteError, chol, chol_update, svd_factor, tria
@@ -15,5 +16,5 @@ __all__ = [
     "svd_factor", "tria", "Gaussian", "Innovation", "Measurement", "Noise", "SqrtGaussian",
     "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
     "Product", "Space", "Wrapped", "wrap_angle", "PARTITIONED_FILTERS", "BlockLayout",
-    "NoPartitionedModeError",
+    "NoPartitionedModeError", "NonFiniteError",
 ]

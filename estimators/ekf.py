@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .finite import require_finite
 from .linalg import Array, chol, kalman_gain
 from .linearise import linearise_measurement, linearise_transition
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
@@ -49,6 +50,7 @@ def ekf_predict(belief: Gaussian, model: Transition, u: Any = None, eps: float =
 def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
                ) -> tuple[Gaussian, Innovation]:
     """EKF measurement update (Joseph form)."""
+    require_finite("measurement", z)
     m, P = belief.mean, belief.cov
     H, zhat = linearise_measurement(model, m, belief.space, eps)
     nu = model.space.local(zhat, np.asarray(z, dtype=float))
@@ -74,8 +76,11 @@ class ExtendedKalmanFilter:
 
     def init(self, mean: Array, space: Space, cov: Array | None = None,
              sqrt: Array | None = None) -> Gaussian:
+        require_finite("prior mean", mean)
+        require_finite("prior factor", sqrt)
         if cov is None:
             cov = np.asarray(sqrt) @ np.asarray(sqrt).T
+        require_finite("prior covariance", cov)
         return Gaussian(np.asarray(mean, dtype=float), np.asarray(cov, dtype=float), space)
 
     def predict(self, belief: Belief, model: Transition, u: Any = None) -> Gaussian:

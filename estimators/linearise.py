@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .finite import require_finite, require_finite_input
 from .linalg import Array
 from .models import Measurement, Transition
 from .spaces import Space
@@ -40,6 +41,7 @@ def numerical_jacobian(fn: Callable[[Array, Array], Array], x: Array, space_in: 
     steps = np.vstack([eps * np.eye(n), -eps * np.eye(n)])
     Y = fn(space_in.retract(x, steps[:, :d]), steps[:, d:])
     y0 = fn(x[None, :], np.zeros((1, nw)))[0]
+    require_finite("model output", Y, y0)
     dY = space_out.local(y0, Y)
     return ((dY[:n] - dY[n:]) / (2.0 * eps)).T, y0
 
@@ -52,8 +54,18 @@ def linearise_transition(model: Transition, x: Array, u: Any, space_in: Space,
     :math:`F = \partial f/\partial\delta` (tangent in, tangent out), :math:`G = \partial
     f/\partial w` at :math:`w = 0` (``None`` for additive noise) and :math:`y = f(x, u[, 0])`;
     analytic when ``model.jacobian`` is given, else :func:`numerical_jacobian` through
-    ``space_in`` / ``space_out``.
+    ``space_in`` / ``space_out``.  A non-finite output raises
+    :class:`~estimators.finite.NonFiniteError`.
     """
+    require_finite_input(u)
+    F, G, y = _linearise_transition(model, x, u, space_in, space_out, eps)
+    require_finite("transition output", y)
+    require_finite("transition Jacobian", F, G)
+    return F, G, y
+
+
+def _linearise_transition(model: Transition, x: Array, u: Any, space_in: Space,
+                          space_out: Space, eps: float) -> tuple[Array, Array | None, Array]:
     if model.additive:
         if model.jacobian is not None:
             return model.jacobian(x, u), None, model.f(x[None, :], u)[0]
@@ -71,7 +83,12 @@ def linearise_measurement(model: Measurement, x: Array, space: Space, eps: float
                           ) -> tuple[Array, Array]:
     r"""The EKF's Jacobian selection for a measurement at ``x`` (on ``space``):
     :math:`(H, \hat z)` with :math:`H = \partial h/\partial\delta`, analytic when
-    ``model.jacobian`` is given, else :func:`numerical_jacobian`."""
+    ``model.jacobian`` is given, else :func:`numerical_jacobian`; a non-finite output
+    raises :class:`~estimators.finite.NonFiniteError`."""
     if model.jacobian is not None:
-        return model.jacobian(x), model.h(x[None, :])[0]
-    return numerical_jacobian(lambda X, W: model.h(X), x, space, model.space, 0, eps)
+        H, zhat = model.jacobian(x), model.h(x[None, :])[0]
+    else:
+        H, zhat = numerical_jacobian(lambda X, W: model.h(X), x, space, model.space, 0, eps)
+    require_finite("measurement model output", zhat)
+    require_finite("measurement Jacobian", H)
+    return H, zhat

@@ -139,6 +139,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, Protocol
 
 import numpy as np
 
+from .finite import require_finite, require_finite_input
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
@@ -292,6 +293,7 @@ class EkfBlockSteps:
         lay = self.layout
         rows = lay.rows(slots)
         x, P = belief.mean, belief.cov
+        require_finite("measurement", z)
         H, zhat = linearise_measurement(model, x[lay.cols(slots)], lay.space_of(len(slots)),
                                         self.filt.eps)
         nu = model.space.local(zhat, np.asarray(z, dtype=float))
@@ -368,8 +370,9 @@ class SqrtSigmaBlockSteps:
     filt: SigmaPointFilter
     layout: BlockLayout
 
-    def _vehicle_points(self, belief: Belief, model: Transition, noise: bool
+    def _vehicle_points(self, belief: Belief, model: Transition, noise: bool, u: Any
                         ) -> tuple[Array, Array, Array, Array]:
+        require_finite_input(u)
         return draw(self.filt.rule, self.layout.vehicle(belief), model.noise if noise else None,
                     self.filt.sqrt_method)
 
@@ -378,8 +381,9 @@ class SqrtSigmaBlockSteps:
         lay = self.layout
         av, nv = lay.vehicle_ambient, lay.vehicle_dim
         x, S = belief.mean, belief.sqrt
-        X, W, dX, wm = self._vehicle_points(belief, model, not model.additive)
+        X, W, dX, wm = self._vehicle_points(belief, model, not model.additive, u)
         Y = model.f(X, u) if model.additive else model.f(X, u, W)
+        require_finite("transition output", Y)
         out = model.space or lay.space_of(0)
         ybar = out.mean(Y, wm)
         G, E, c0, sign = _regression(self.filt.rule, np.hstack([dX, W]), out.local(ybar, Y))
@@ -425,9 +429,14 @@ class SqrtSigmaBlockSteps:
         cols = np.r_[0:top, n:S.shape[1]]                       # pending columns too
         Om, R = np.linalg.qr(S[rows][:, cols].T)                # S_r = Ω S_sᵀ (thin QR)
         Om, R = _sign_fix(Om, R)
+        if (k := len(rows) - R.shape[0]) > 0:  # fewer columns than rows (a repeated slot)
+            Om = np.hstack([Om, np.zeros((len(Om), k))])
+            R = np.vstack([R, np.zeros((k, len(rows)))])
         bs = SqrtGaussian(x[lay.cols(slots)], R.T, lay.space_of(len(slots)))
+        require_finite("measurement", z)
         X, _, dX, wm = draw(rule, bs, None, self.filt.sqrt_method)
         Z = model.h(X)
+        require_finite("measurement model output", Z)
         zspace = model.space
         zhat = zspace.mean(Z, wm)
         ks = len(rows)
@@ -458,8 +467,9 @@ class SqrtSigmaBlockSteps:
         av, nv = lay.vehicle_ambient, lay.vehicle_dim
         x, S = belief.mean, belief.sqrt
         n = belief.dim
-        X, W, dX, wm = self._vehicle_points(belief, model, True)
+        X, W, dX, wm = self._vehicle_points(belief, model, True, u)
         Yall = model.f(X, u, W)
+        require_finite("transition output", Yall)
         k = (Yall.shape[1] - av) // lay.landmark_ambient
         new_space = lay.space_of(k)
         # the new landmarks' own coordinates: local charts of the block output, minus vehicle

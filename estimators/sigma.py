@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from .finite import require_finite, require_finite_input
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
@@ -67,12 +68,14 @@ def _belief(form: Form, mean: Array, cov_or_sqrt: Array, space: Space) -> Belief
 def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition,
                   u: Any = None, method: SqrtMethod = "cholesky") -> Belief:
     """Time update: propagate sigma points through ``model.f``."""
+    require_finite_input(u)
     if model.additive:
         X, _, _, wm = draw(rule, belief, None, method)
         Y = model.f(X, u)
     else:
         X, W, _, wm = draw(rule, belief, model.noise, method)
         Y = model.f(X, u, W)
+    require_finite("transition output", Y)
     space = model.space or belief.space
     mean = space.mean(Y, wm)
     fac = rule.factor(space.local(mean, Y))
@@ -83,8 +86,10 @@ def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition
 def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
                  z: Array, method: SqrtMethod = "cholesky") -> tuple[Belief, Innovation]:
     """Measurement update with points redrawn from ``belief``."""
+    require_finite("measurement", z)
     X, _, dX, wm = draw(rule, belief, None, method)
     Z = model.h(X)
+    require_finite("measurement model output", Z)
     zspace = model.space
     zhat = zspace.mean(Z, wm)
     fac = rule.factor(np.hstack([dX, zspace.local(zhat, Z)]))
@@ -149,9 +154,12 @@ class SigmaPointFilter:
              sqrt: Array | None = None) -> Belief:
         """Initial belief from a covariance or (for singular priors) a factor."""
         mean = np.asarray(mean, dtype=float)
+        require_finite("prior mean", mean)
+        require_finite("prior covariance", cov)
         if sqrt is None:
             sqrt = chol(np.asarray(cov, dtype=float))
         sqrt = np.asarray(sqrt, dtype=float)
+        require_finite("prior factor", sqrt)
         if self.form == "dense":
             return Gaussian(mean, sqrt @ sqrt.T, space)
         return SqrtGaussian(mean, sqrt, space)

@@ -31,16 +31,35 @@ def factor_of(belief: Belief, method: SqrtMethod = "cholesky") -> Array:
 
     A square-root belief gives its stored factor.  A dense belief is factored by
     Cholesky, or by the eigen-decomposition :math:`P = U\Lambda U^\top \to U\Lambda^{1/2}`
-    (``"eigh"``: the points the SVD-factored filter draws, up to order and sign).
+    (``"eigh"``: the points the SVD-factored filter draws, up to order and sign).  A
+    singular but positive semi-definite covariance (a state known exactly in some
+    directions, e.g. a zero initial vehicle covariance) has no Cholesky factor; it is
+    factored by :func:`psd_factor`, as the square-root forms carry it.
     """
     if isinstance(belief, SqrtGaussian):
         return belief.sqrt
     if method == "cholesky":
-        return chol(belief.cov)
+        try:
+            return chol(belief.cov)
+        except NotPositiveDefiniteError:
+            return psd_factor(belief.cov)
     lam, U = np.linalg.eigh(belief.cov)
     if not lam.min() > 0.0:
-        raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} <= 0")
+        return psd_factor(belief.cov)
     return U * np.sqrt(lam)
+
+
+def psd_factor(P: Array) -> Array:
+    r"""A square factor :math:`U\Lambda_+^{1/2}` of a positive semi-definite ``P``
+    (eigenvalues down to :math:`-n\,\epsilon\,\lambda_{max}` count as zero); raises
+    :class:`NotPositiveDefiniteError` for a covariance with a clearly negative or a
+    non-finite eigenvalue."""
+    lam, U = np.linalg.eigh(0.5 * (P + P.T))
+    top = float(np.max(np.abs(lam), initial=0.0))
+    tol = P.shape[0] * np.finfo(float).eps * top
+    if not (np.isfinite(top) and lam.min(initial=0.0) >= -tol):
+        raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} < 0")
+    return U * np.sqrt(np.clip(lam, 0.0, None))
 
 
 def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,

@@ -12,7 +12,9 @@ not depend on the executor or the number of workers.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Sequence
+import signal
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -29,6 +31,64 @@ def pin_threads() -> None:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
+
+
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def die_with_parent(parent: int) -> None:
+    """End this (worker) process when process ``parent`` dies: ``PR_SET_PDEATHSIG`` on
+    Linux, a watchdog thread polling the parent elsewhere."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) != 0:  # 1 = PR_SET_PDEATHSIG
+            raise OSError(ctypes.get_errno(), "prctl failed")
+    except (OSError, AttributeError):
+        def watch() -> None:
+            while os.getppid() == parent:
+                threading.Event().wait(0.5)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True, name="parent-watch").start()
+    if os.getppid() != parent:  # the parent died before the watch was set up
+        os._exit(1)
+
+
+def init_worker(parent: int) -> None:
+    """A pool worker: dies with the campaign's process, leaves SIGINT to it (the parent
+    stops the pool on Ctrl-C) and pins its maths library to one thread."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):  # blocked while the parent forked us
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
+    die_with_parent(parent)
+    pin_threads()
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool now: kill its workers (in-flight runs included), cancel the rest."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        if proc.is_alive():
+            proc.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        proc.join(timeout=2.0)
+
+
+def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple]) -> Iterator:
+    """``pool.map(run_task, tasks)``, the workers forked with SIGINT/SIGTERM blocked (a
+    signal arriving meanwhile is delivered to this process afterwards)."""
+    mask = hasattr(signal, "pthread_sigmask") and threading.current_thread() is \
+        threading.main_thread()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if mask else None
+    try:
+        return pool.map(run_task, tasks)
+    finally:
+        if old is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def run_seeds(seed: int, runs: int) -> list[np.random.SeedSequence]:
@@ -101,13 +161,19 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
         pin_threads()
         it = map(run_task, tasks)
     else:
-        pool = ProcessPoolExecutor(max_workers=workers, initializer=pin_threads)
-        it = pool.map(run_task, tasks)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=init_worker,
+                                   initargs=(os.getpid(),))
+        it = _pool_results(pool, tasks)
     try:
         for out in it:
             outcomes.append(out)
             if progress:
                 progress(1)
+    except BaseException:  # an error, Ctrl-C: no waiting for the runs still going
+        if pool is not None:
+            stop_pool(pool)
+            pool = None
+        raise
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)

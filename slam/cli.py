@@ -1,35 +1,118 @@
 """The ``slam`` command line.
 
-Exit codes: 0 success; 2 bad input (a clear message naming the file or option, the
-key and the allowed range; nothing is written); 1 an unexpected error (a bug).
+Exit codes: 0 success; 2 bad input - one line ``error: ...`` naming the file or option,
+the key or line and the allowed range or reason (control characters escaped, long
+tokens cut), and nothing is written; 130 (143) interrupted by Ctrl-C (SIGTERM), the
+workers stopped and nothing half-written; 1 an unexpected error (a bug: a traceback).
+
+This module is the one error boundary of the application: a world or log the user
+gave that turns out unusable during a run (a waypoint the vehicle cannot reach, a
+mesh that does not cover the map, ...) raises a :class:`~worlds.schema.WorldError` or a
+``LogFormatError`` wherever it is found - in a worker process too, the errors pickle
+intact - and becomes exit 2 here; numerical failures inside a run never get here (the
+filters count them as divergences, the smoother as a failed reference).
 """
 
 from __future__ import annotations
 
 import os
+import re
+import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import click
 
-from estimators import FILTER_NAMES
-
 ALL_MODES = ("joint", "local")
+_LONG_TOKEN = re.compile(r"\S{161,}")
+
+
+def clean_message(text: str, limit: int = 2000) -> str:
+    """``text`` as one safe terminal line: control and format characters (newlines, a
+    right-to-left override, ...) escaped, tokens over 160 characters cut in the middle,
+    the whole cut to ``limit`` characters."""
+    out = "".join(ch if ch.isprintable() else
+                  (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else f"\\u{ord(ch):04x}"
+                   if ord(ch) < 0x10000 else f"\\U{ord(ch):08x}") for ch in text)
+    out = _LONG_TOKEN.sub(lambda m: f"{m[0][:100]}...[{len(m[0])} characters]..."
+                          f"{m[0][-40:]}", out)
+    return out if len(out) <= limit else out[:limit] + f"...[{len(out)} characters]"
 
 
 class InputError(click.ClickException):
-    """Bad input from the user: exit code 2, nothing half-written."""
+    """Bad input from the user: exit code 2, one line, nothing half-written."""
 
     exit_code = 2
 
     def show(self, file=None) -> None:
-        click.echo(f"error: {self.format_message()}", err=True, file=file)
+        click.echo(f"error: {clean_message(self.format_message())}", err=True, file=file)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class Interrupted(InputError):
+    """Ctrl-C (exit 130) or SIGTERM (143): the runs stopped, nothing half-written."""
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        super().__init__("interrupted")
+        self.exit_code = 128 + int(signum)
+
+
+class _Command(click.Command):
+    """Usage errors (an option's bad value, an unknown option) as one ``error:`` line."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            raise InputError(f"{exc.format_message()} (see `slam {self.name} --help`)"
+                             ) from None
+
+
+class _Group(click.Group):
+    """The ``slam`` group: one-line usage errors, Ctrl-C exits 130 wherever it lands."""
+
+    command_class = _Command
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError as exc:
+            raise InputError(f"{exc.format_message()} (see `slam --help`)") from None
+
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True, **extra: Any):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, False, **extra)
+        own_process = args is None  # the `slam` command itself, not a test runner
+        try:
+            rv = super().main(args, prog_name, complete_var, False, **extra)
+        except click.ClickException as exc:
+            exc.show()
+            _exit(exc.exit_code, fast=own_process and isinstance(exc, Interrupted))
+        except (click.Abort, KeyboardInterrupt):
+            Interrupted().show()
+            _exit(128 + signal.SIGINT, fast=own_process)
+        except BrokenPipeError:  # e.g. `slam worlds | head -1`
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _exit(code: int, fast: bool = False) -> None:
+    """Exit with ``code``; ``fast`` (an interrupt, clean-up done) skips the interpreter's
+    teardown of the numerical libraries, which takes a second or more."""
+    if fast:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 def main() -> None:
     """Workbench for nonlinear navigation filters, scored against a GTSAM smoother."""
 
@@ -47,6 +130,8 @@ def worlds_cmd() -> None:
 
 
 def _parse_filters(value: str | None, default: Sequence[str]) -> list[str]:
+    from estimators import FILTER_NAMES
+
     if value is None:
         return list(default)
     names = [v.strip() for v in value.split(",") if v.strip()]
@@ -54,7 +139,30 @@ def _parse_filters(value: str | None, default: Sequence[str]) -> list[str]:
     if not names or bad:
         raise InputError(f"--filters: unknown filter {', '.join(bad) or '(none)'}; "
                          f"allowed: {', '.join(FILTER_NAMES)} (comma-separated)")
+    if len(set(names)) != len(names):
+        raise InputError(f"--filters {value}: names a filter twice")
     return names
+
+
+@contextmanager
+def _stop_signals() -> Iterator[dict[str, int]]:
+    """SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C (so the same clean-up runs);
+    yields ``{"signum": ...}`` of the signal that arrived."""
+    caught = {"signum": int(signal.SIGINT)}
+
+    def on_term(signum: int, frame: Any) -> None:
+        caught["signum"] = signum
+        raise KeyboardInterrupt
+
+    try:
+        old = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread: leave the signals alone
+        yield caught
+        return
+    try:
+        yield caught
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 @main.command("run")
@@ -63,8 +171,10 @@ def _parse_filters(value: str | None, default: Sequence[str]) -> list[str]:
               help="Comma-separated filters (default: the world's list), e.g. ekf,srckf.")
 @click.option("--runs", type=int, help="Monte Carlo runs (default: the world's), 1 to 10000.")
 @click.option("--seed", type=int, help="Campaign seed (default: the world's), >= 0.")
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path),
-              help="Output folder (default: out/<world>).")
+@click.option("--out", "out", type=click.Path(path_type=Path),
+              help="Output folder (default: out/<world>, with the options that differ from "
+                   "the world's in the name, e.g. out/bailey-runs3-local). Written only if "
+                   "absent, empty or an earlier output of slam.")
 @click.option("--workers", type=int, default=None,
               help="Local worker processes (default: number of cores, at most 2 per core).")
 @click.option("--scheduler", metavar="ADDRESS",
@@ -85,11 +195,22 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
+    with _stop_signals() as caught:
+        try:
+            _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file)
+        except KeyboardInterrupt:
+            raise Interrupted(caught["signum"]) from None
+
+
+def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
+         out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
+         mode: str | None, log_file: str | None) -> None:
+    """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
-        workers = 1
+        workers, own_mode = 1, None if mode else w.filters.mode
     else:
-        w, kind = _open_world(world or "bailey", mode)
+        w, kind, own_mode = _open_world(world or "bailey", mode)
     names = _parse_filters(filters, w.filters.names)
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:
@@ -103,15 +224,37 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
         workers = os.cpu_count() or 1
     if not 1 <= workers <= 256:
         raise InputError(f"--workers = {workers}: must be in [1, 256]")
-    out = out or Path("out") / w.name
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
-    _run_and_write(w, kind, names, runs, seed, workers, scheduler, out, not no_plots,
-                   world_mode)
+    campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
+                "seed": w.seed if seed is None else seed, "mode": world_mode,
+                "filters": names}
+    if out is None:
+        own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
+               "filters": None if log_file is not None and filters else list(w.filters.names)}
+        out = Path("out") / default_folder(w.name, campaign, own)
+    _run_and_write(w, kind, campaign, workers, scheduler, out, not no_plots)
+
+
+def _slug(name: str) -> str:
+    """A world name as one safe folder name (no path separators, no leading dot)."""
+    slug = re.sub(r"[^\w.+-]+", "_", name, flags=re.ASCII).lstrip("._")[:80]
+    return slug or "world"
+
+
+def default_folder(name: str, campaign: dict[str, Any], own: dict[str, Any]) -> str:
+    """``<world>``, plus each setting of the campaign that differs from the world's own
+    (``own``: runs, seed, mode, filters), so that another campaign on the world does not
+    replace its main result: ``bailey``, ``bailey-runs3-local``, ``bailey-seed7-ekf+srckf``."""
+    parts = [f"{key}{campaign[key]}" for key in ("runs", "seed")
+             if campaign[key] != own[key]]
+    if campaign["mode"] is not None and campaign["mode"] != own["mode"]:
+        parts.append(campaign["mode"])
+    if list(campaign["filters"]) != list(own["filters"] or ()):
+        parts.append("+".join(campaign["filters"]))
+    return "-".join([_slug(name), *parts])[:160]
 
 
 def _open_world(name: str, mode: str | None):
-    """Load WORLD and apply ``--mode``; -> (world, kind)."""
+    """Load WORLD and apply ``--mode``; -> (world, kind, the world's own mode)."""
     from slam.registry import get_kind, load_world
     from worlds import WorldError
 
@@ -126,7 +269,7 @@ def _open_world(name: str, mode: str | None):
             has = (f"modes {', '.join(kind.modes)}" if kind.modes else "no filter modes")
             raise InputError(f"--mode {mode}: world {w.name} (kind {w.kind}) has {has}")
         w = replace(w, filters=replace(w.filters, mode=mode))
-    return w, kind
+    return w, kind, world_mode
 
 
 def _open_log(log_file: str, world: str | None, filters: str | None, runs: int | None,
@@ -148,14 +291,52 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
     return w, kind
 
 
-def _run_and_write(w, kind, names: list[str], runs: int | None, seed: int | None,
-                   workers: int, scheduler: str | None, out: Path, plots: bool,
-                   world_mode: str | None) -> None:
-    """Run the campaign (local pool or Dask), write the report folder, print the table."""
+def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: str | None,
+                   out: Path, plots: bool) -> None:
+    """Prepare the output (before any work), run the campaign (local pool or Dask), write
+    the report folder, print the table."""
+    from slam.kinds.recorded.log import LogFormatError
+    from slam.render.output import OutputError, abandon, commit, prepare_output
+    from worlds import WorldError
+
+    try:
+        staging = prepare_output(out, campaign)
+    except OutputError as exc:
+        raise InputError(f"--out {exc}") from None
+    try:
+        result, elapsed = _campaign(w, campaign, workers, scheduler)
+        commit(staging, result, kind.report, plots=plots)
+    except (WorldError, LogFormatError) as exc:  # found during the run: still bad input
+        abandon(staging)
+        raise InputError(str(exc) if isinstance(exc, WorldError) else f"--log {exc}") from None
+    except BaseException:
+        abandon(staging)
+        raise
+    click.echo(kind.report.text_table(result.summary))
+    n, mode = campaign["runs"], campaign["mode"]
+    executor = f"dask scheduler {scheduler}" if scheduler else f"{workers} local worker(s)"
+    in_mode = f" ({mode} mode)" if mode else ""
+    click.echo(f"\n{n} run{'s' if n != 1 else ''} x {len(campaign['filters'])} filters + "
+               f"baselines{in_mode} in {elapsed:.1f} s on {executor}; results in {out}/")
+    if staging.previous is not None and staging.previous != campaign:
+        click.echo(f"note: replaced the earlier results in {out}/ "
+                   f"({describe_campaign(staging.previous)})")
+
+
+def describe_campaign(c: dict[str, Any]) -> str:
+    """A recorded campaign in a few words (``{}``: unknown)."""
+    if not c:
+        return "an earlier campaign"
+    mode = f", {c['mode']} mode" if c.get("mode") else ""
+    return (f"world {c.get('world')}, {c.get('runs')} run(s), seed {c.get('seed')}{mode}, "
+            f"filters {','.join(map(str, c.get('filters') or []))}")
+
+
+def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
+    """Run the campaign with a progress bar; -> (result, wall seconds)."""
     from tqdm import tqdm
 
     from slam.campaign import dask_mapper, run_campaign
-    from slam.render.output import write_outputs
 
     mapper = client = None
     if scheduler:
@@ -163,23 +344,17 @@ def _run_and_write(w, kind, names: list[str], runs: int | None, seed: int | None
             mapper, client = dask_mapper(scheduler)
         except (OSError, TimeoutError, ValueError, RuntimeError) as exc:
             raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-    n_runs = runs or w.runs
     t0 = time.perf_counter()
     try:
-        with tqdm(total=n_runs, desc=f"{w.name}: runs", unit="run", file=sys.stderr,
-                  disable=None) as bar:
-            result = run_campaign(w, filters=names, runs=n_runs, seed=seed, workers=workers,
-                                  mapper=mapper, progress=bar.update)
+        with tqdm(total=campaign["runs"], desc=f"{w.name}: runs", unit="run",
+                  file=sys.stderr, disable=None) as bar:
+            result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
+                                  seed=campaign["seed"], workers=workers, mapper=mapper,
+                                  progress=bar.update)
     finally:
         if client is not None:
             client.close()
-    elapsed = time.perf_counter() - t0
-    executor = f"dask scheduler {scheduler}" if scheduler else f"{workers} local worker(s)"
-    write_outputs(result, kind.report, out, plots=plots)
-    click.echo(kind.report.text_table(result.summary))
-    in_mode = f" ({world_mode} mode)" if world_mode else ""
-    click.echo(f"\n{n_runs} run{'s' if n_runs != 1 else ''} x {len(names)} filters + "
-               f"baselines{in_mode} in {elapsed:.1f} s on {executor}; results in {out}/")
+    return result, time.perf_counter() - t0
 
 
 def _check_mode(kind, names: list[str], mode: str, where: str) -> None:

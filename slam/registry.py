@@ -12,8 +12,8 @@ import os
 from typing import Any
 
 from slam.kind import Kind
-from slam.kinds import attitude, drone, planar, recorded
-from worlds.loader import WorldDocument, bundled_documents, read_world
+from slam.kinds import attitude, drone, planar, recorded, ship
+from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
 
 KINDS: dict[str, Kind] = {}
@@ -26,7 +26,7 @@ def register(kind: Kind) -> Kind:
     return kind
 
 
-for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND):
+for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND):
     register(_k)
 
 
@@ -59,6 +59,7 @@ def world_from_dict(data: dict[str, Any], name: str = "custom", source: str | No
     ``base`` is the folder that relative map files are read from (``None``: none allowed).
     """
     source = source or f"<{name}>"
+    check_nesting(data, source)
     return _world_kind(data, source).parse(data, name, source, base)
 
 

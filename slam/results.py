@@ -49,6 +49,12 @@ class RunScores:
     nis, nis_dof : per batch update.
     time_s : wall time; steps : filter epochs processed (predict + update cycles).
     diverged : bool; failure : reason.
+    err_track : (E, 2) ``[along-track, cross-track]`` position error (m) in the true
+        heading's frame (cross-track positive to the left); sig_track : (E, 2) own σ
+        (both single precision: they only feed figures).
+    nis_epoch : (U,) the epoch index of each batch update (``None``: not recorded).
+    map_series : the filter's map per epoch
+        (:class:`~slam.mapping.map_series.MapSeries`; ``None`` for estimators without one).
     """
 
     name: str
@@ -62,6 +68,10 @@ class RunScores:
     steps: int
     diverged: bool = False
     failure: str | None = None
+    err_track: Array | None = None
+    sig_track: Array | None = None
+    nis_epoch: NDArray[np.int64] | None = None
+    map_series: Any = None
 
 
 @dataclass(frozen=True)

@@ -51,8 +51,8 @@ def per_epoch_anees(nees: Array, dof: int) -> Array:
 
 def anees_stats(nees: Array, dof: int) -> dict[str, Any]:
     """ANEES of per-run NEES series ``nees`` (R, E) with its two-sided 95 % band, the
-    fraction of epochs whose run-averaged NEES / dof lies inside the band, and the distance
-    of the ANEES to the band (0 inside); ``{}`` when there is no NEES at all."""
+    fractions of epochs whose run-averaged NEES / dof lies inside the band and above it,
+    and the distance of the ANEES to the band (0 inside); ``{}`` when there is no NEES."""
     per_step = per_epoch_anees(nees, dof)
     valid = per_step[np.isfinite(per_step)]
     if not valid.size:
@@ -61,7 +61,21 @@ def anees_stats(nees: Array, dof: int) -> dict[str, Any]:
     value = float(valid.mean())
     distance = 0.0 if lo <= value <= hi else float(min(abs(value - lo), abs(value - hi)))
     return {"value": value, "band": [lo, hi],
-            "inside": float(np.mean((valid >= lo) & (valid <= hi))), "distance": distance}
+            "inside": float(np.mean((valid >= lo) & (valid <= hi))),
+            "above": float(np.mean(valid > hi)), "distance": distance}
+
+
+def track_frame(err_xy: Array, cov_xy: Array, heading: Array) -> tuple[Array, Array]:
+    """Position errors ``err_xy`` (E, 2) and their covariances ``cov_xy`` (E, 2, 2) in the
+    frame of ``heading`` (E,): ``[along-track, cross-track]`` errors and standard
+    deviations (cross-track positive to the left of the direction of travel)."""
+    c, s = np.cos(heading), np.sin(heading)
+    R = np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], -2)  # (E, 2, 2) world->track
+    err = np.einsum("kij,kj->ki", R, err_xy)
+    with np.errstate(invalid="ignore"):
+        cov = R @ cov_xy @ np.swapaxes(R, -1, -2)
+        sig = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0.0, None))
+    return err, sig
 
 
 def nis_and_timing(good: list) -> dict:

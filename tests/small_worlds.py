@@ -103,10 +103,9 @@ def small_drone_world(**sections: Any):
     return world_from_dict(small_drone_doc(**sections), name="small-drone")
 
 
-def star_sensor_doc(**overrides: Any) -> dict[str, Any]:
-    """The bundled star-sensor document with dotted-key overrides (``"gyro.rate_hz"``)."""
-    raw = (files("worlds") / "star-sensor.toml").read_bytes()
-    data = copy.deepcopy(tomllib.loads(raw.decode("utf-8")))
+def overridden(doc: dict[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``doc`` with dotted-key overrides (``{"gyro.rate_hz": 100.0}``)."""
+    data = copy.deepcopy(doc)
     for dotted, value in overrides.items():
         *head, last = dotted.split(".")
         table = data
@@ -114,6 +113,12 @@ def star_sensor_doc(**overrides: Any) -> dict[str, Any]:
             table = table.setdefault(key, {})
         table[last] = value
     return data
+
+
+def star_sensor_doc(**overrides: Any) -> dict[str, Any]:
+    """The bundled star-sensor document with dotted-key overrides (``"gyro.rate_hz"``)."""
+    raw = (files("worlds") / "star-sensor.toml").read_bytes()
+    return overridden(tomllib.loads(raw.decode("utf-8")), overrides)
 
 
 def star_sensor_world(**overrides: Any):

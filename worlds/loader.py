@@ -17,6 +17,7 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
+from worlds import limits
 from worlds.schema import WorldError
 
 _LINE = re.compile(r"at line (\d+)")
@@ -43,15 +44,30 @@ def bundled_names() -> list[str]:
 
 
 def parse_toml(raw: bytes, source: str) -> dict[str, Any]:
-    """TOML text -> table; errors name the file (and line)."""
+    """TOML text -> table; errors name the file (and line).  Values nested deeper than
+    :data:`~worlds.limits.MAX_NESTING` levels are refused."""
     try:
-        return tomllib.loads(raw.decode("utf-8"))
+        data = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:
         raise WorldError(source, None, f"not UTF-8 text: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         match = _LINE.search(str(exc))
         line = int(match.group(1)) if match else None
         raise WorldError(source, None, f"invalid TOML: {exc}", line=line) from None
+    except RecursionError:
+        raise WorldError(source, None, "invalid TOML: arrays or tables nested too deeply "
+                         f"(at most {limits.MAX_NESTING} levels)") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise WorldError(source, None, f"invalid TOML: {exc}") from None
+    check_nesting(data, source)
+    return data
+
+
+def check_nesting(data: Any, source: str) -> None:
+    """Refuse tables and arrays nested deeper than :data:`~worlds.limits.MAX_NESTING`."""
+    if limits.depth(data) > limits.MAX_NESTING:
+        raise WorldError(source, None, "arrays or tables nested deeper than "
+                         f"{limits.MAX_NESTING} levels")
 
 
 def _locate(name_or_path: str | os.PathLike[str]) -> tuple[str, str, Traversable]:
@@ -65,8 +81,9 @@ def _locate(name_or_path: str | os.PathLike[str]) -> tuple[str, str, Traversable
     )
     if looks_like_path:
         path = Path(text)
-        if not path.is_file():
+        if not path.exists():
             raise WorldError(text, None, "no such world file")
+        limits.check_file(path, lambda why: WorldError(text, None, why))
         return path.stem, text, path
     candidate = _package() / f"{text}.toml"
     if not candidate.is_file():

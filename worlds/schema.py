@@ -32,16 +32,21 @@ AS_KEY: Any = object()
 """The dataclass field a key fills by default: the one named like the key."""
 
 
-def format_value(value: Any, limit: int = 60) -> str:
-    """A value as it would be written in TOML, shortened to ``limit`` characters."""
+def format_value(value: Any, limit: int = 60, depth: int = 0) -> str:
+    """A value as it would be written in TOML, shortened to ``limit`` characters (long
+    strings and collections are cut before they are formatted in full)."""
     if isinstance(value, bool):
         text = "true" if value else "false"
     elif isinstance(value, str):
-        text = json.dumps(value, ensure_ascii=False)
+        text = json.dumps(value[: limit + 1], ensure_ascii=False)
+    elif isinstance(value, list | tuple | dict) and depth > 8:
+        text = "[...]" if isinstance(value, list | tuple) else "{...}"
     elif isinstance(value, list | tuple):
-        text = "[" + ", ".join(format_value(v, limit) for v in value) + "]"
+        text = "[" + ", ".join(format_value(v, limit, depth + 1) for v in value[:limit]) + "]"
     elif isinstance(value, dict):
-        text = "{" + ", ".join(f"{k} = {format_value(v, limit)}" for k, v in value.items()) + "}"
+        items = list(value.items())[:limit]
+        text = "{" + ", ".join(f"{k} = {format_value(v, limit, depth + 1)}"
+                               for k, v in items) + "}"
     else:
         text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -76,12 +81,24 @@ class WorldError(ValueError):
         self.line = line
         super().__init__(str(self))
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickle by the constructor's arguments (errors cross the worker pool intact)."""
+        has_value = self.value is not NO_VALUE
+        return (_world_error, (self.file, self.key, self.message, has_value,
+                               self.value if has_value else None, self.line))
+
     def __str__(self) -> str:
         where = self.file if self.line is None else f"{self.file}:{self.line}"
         if self.key is None:
             return f"{where}: {self.message}"
         shown = "" if self.value is NO_VALUE else f" = {format_value(self.value)}"
         return f"{where}: {format_key(self.key)}{shown}: {self.message}"
+
+
+def _world_error(file: str, key: str | None, message: str, has_value: bool, value: Any,
+                 line: int | None) -> WorldError:
+    """Rebuild a pickled :class:`WorldError` (``NO_VALUE`` is not picklable by identity)."""
+    return WorldError(file, key, message, value if has_value else NO_VALUE, line)
 
 
 @dataclass(frozen=True)

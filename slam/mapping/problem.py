@@ -39,6 +39,7 @@ from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Innovation, Measurement, Transition
 from estimators.partitioned import BlockLayout
+from slam.mapping.map_series import MapRecorder, MapSeries, vehicle_variances
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
 MODES: tuple[str, ...] = ("joint", "local")
@@ -62,6 +63,10 @@ class SlamResult:
     nis : (U,) normalised innovation squared per batch update; nis_dof : (U,).
     time_s : wall time of the filter loop.
     diverged : bool; failure : reason or ``None``; epochs_done : the last epoch recorded.
+    nis_epoch : (U,) the epoch of each batch update; vehicle_var : (E, vehicle tangent)
+    the vehicle's variances per epoch; map_series : the map per epoch
+    (:class:`~slam.mapping.map_series.MapSeries`).  ``time_s`` leaves out the time spent
+    recording these.
     """
 
     name: str
@@ -77,6 +82,9 @@ class SlamResult:
     diverged: bool
     failure: str | None
     epochs_done: int = 0
+    nis_epoch: Array | None = None
+    vehicle_var: Array | None = None
+    map_series: MapSeries | None = None
 
 
 @dataclass(frozen=True)
@@ -107,6 +115,8 @@ class SlamProblem:
         nearest-neighbour association, or ``None`` (ids only).
     record_rows : the vehicle's tangent rows whose covariance is recorded per epoch
         (default: all of them).
+    true_landmarks : (N, landmark ambient) true landmark positions by id, or ``None``;
+        only for scoring the map per epoch (:class:`~slam.mapping.map_series.MapSeries`).
     """
 
     x0: Array
@@ -123,6 +133,7 @@ class SlamProblem:
     position_dims: int = 2
     nearest: Callable[..., int | None] | None = None
     record_rows: Array | None = None
+    true_landmarks: Array | None = None
 
     def landmark_rows(self, slot: int) -> Array:
         """Tangent rows of landmark ``slot``."""
@@ -191,9 +202,13 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     rows = np.arange(nvt) if problem.record_rows is None else np.asarray(problem.record_rows)
     covs = np.full((E, len(rows), len(rows)), np.nan)
     assoc = _Association(problem, ops, association, gates)
+    maps = MapRecorder(lay, E, problem.true_landmarks)
+    var = np.full((E, nvt), np.nan)
 
     def record(e: int, b: Belief) -> None:
         poses[e], covs[e] = b.mean[:nv], b.cov_block(rows)
+        var[e] = vehicle_variances(b, nvt)
+        maps.record(e, b, assoc.slot_ids)
 
     def check(e: int, b: Belief) -> None:
         truth, k1, d = problem.truth, int(steps[e]), problem.position_dims
@@ -211,13 +226,16 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     out = run_epochs(filt, b, E, steps=ops, record=record, check=check, transition=transition,
                      correct=lambda e, b: assoc.correct(int(steps[e]), b))
     b = out.belief
-    n_lm, nla, nl = len(assoc.slot_ids), lay.landmark_ambient, lay.landmark_dim
+    # the last good belief: an epoch that failed may have named slots it never added
+    n_lm, nla, nl = lay.n_landmarks(b.dim), lay.landmark_ambient, lay.landmark_dim
     lm = b.mean[nv:nv + nla * n_lm].reshape(n_lm, nla)
     lm_cov = np.array([b.cov_block(problem.landmark_rows(s)) for s in range(n_lm)]
                       ).reshape(n_lm, nl, nl)
-    return SlamResult(filter_name, steps, poses, covs, np.array(assoc.slot_ids, dtype=int), lm,
-                      lm_cov, out.nis, out.nis_dof, out.time_s, out.diverged, out.failure,
-                      out.epochs_done)
+    ids = np.array(assoc.slot_ids[:n_lm], dtype=int)
+    return SlamResult(filter_name, steps, poses, covs, ids, lm,
+                      lm_cov, out.nis, out.nis_dof, max(out.time_s - maps.seconds, 0.0),
+                      out.diverged, out.failure, out.epochs_done, out.nis_epoch, var,
+                      maps.series())
 
 
 class _Association:
@@ -242,13 +260,16 @@ class _Association:
         if sl is None:
             return b, []
         matched_slots, matched_z, matched_i, new_z, new_i = [], [], [], [], []
+        late: list[tuple[int, Array, int]] = []  # landmarks first seen in this epoch, again
         n_before = len(self.slot_ids)
         Z, ids = problem.obs[sl], problem.obs_id[sl]
         for i, (z, lid) in enumerate(zip(Z, ids), start=sl.start or 0):
             slot = self._slot(b, z, lid, n_before)
             if slot is None:
                 continue
-            if slot >= 0:
+            if slot >= n_before:
+                late.append((slot, z, i))
+            elif slot >= 0:
                 matched_slots.append(slot)
                 matched_z.append(z)
                 matched_i.append(i)
@@ -264,6 +285,10 @@ class _Association:
             inns.append(inn)
         if new_z:
             b = self.ops.augment(b, n_before, np.concatenate(new_z), np.array(new_i))
+        if late:  # their second sightings update the state they were just added to
+            slots, zs, index = zip(*late)
+            b, inn = self.ops.update(b, np.array(slots), np.array(index), np.concatenate(zs))
+            inns.append(inn)
         return b, inns
 
 

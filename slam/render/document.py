@@ -1,6 +1,8 @@
-"""The report document of a campaign: sections (tables and notes) and figures, rendered
-to Markdown and to self-contained HTML.  A kind describes its report as a
-:class:`KindReport` value; this module knows nothing of any particular kind."""
+"""The report document of a campaign: sections (tables and notes), links to the folder's
+other files, figures and the provenance block, rendered to Markdown and to HTML whose
+figures are embedded (its only links are relative ones to files in the same folder).  A
+kind describes its report as a :class:`KindReport` value; this module knows nothing of
+any particular kind."""
 
 from __future__ import annotations
 
@@ -10,7 +12,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
+from slam.render.provenance import provenance_line, provenance_rows
 from slam.render.tables import html_table, html_text, markdown_table, paper_rows
 from slam.results import CampaignResult
 
@@ -34,19 +38,39 @@ class Section:
     header: Sequence[str] | None = None
     rows: Sequence[Sequence[str]] = ()
     text: str = ""
+    key_value: bool = False
+    """A two-column table of items and texts (left-aligned, wrapping) rather than numbers."""
+
+
+Link = tuple[str, str]
+"""A file of the report folder the report links to: (file name, what it holds)."""
 
 
 @dataclass(frozen=True)
 class KindReport:
     """How to report one world kind: what the campaign is, its sections (tables and
-    notes), its figures (file name -> (draw function, caption)), its terminal table,
-    and any extra files (e.g. trajectories)."""
+    notes), its figures (file name -> (draw function, caption); see
+    :func:`slam.render.figures.figure_table`), its terminal table, any extra files (e.g.
+    trajectories) and ``links``: the extra files the report links to (the names
+    ``extra_files`` writes, known before it runs)."""
 
     what: str
     sections: Callable[[dict[str, Any]], list[Section]]
     figures: Callable[[], dict[str, tuple[Figure, str]]]
     text_table: Callable[[dict[str, Any]], str]
     extra_files: Callable[[CampaignResult, Path], list[str]] = lambda result, out: []
+    links: Callable[[CampaignResult], list[Link]] = lambda result: []
+
+
+def report_links(result: CampaignResult, kr: KindReport) -> list[Link]:
+    """Every file the report links to: the summary, the Markdown report and the kind's."""
+    return [("summary.json", "the campaign's numbers (strict JSON)"),
+            ("report.md", "this report in Markdown"), *kr.links(result)]
+
+
+def _provenance_sections(summary: dict[str, Any]) -> list[Section]:
+    rows = provenance_rows(summary.get("provenance"))
+    return [Section("Provenance", ("item", "value"), rows, key_value=True)] if rows else []
 
 
 def captioned(writers: dict[str, Figure], captions: dict[str, str]
@@ -75,24 +99,38 @@ def report_markdown(result: CampaignResult, kr: KindReport, figures: Sequence[st
     if description:
         parts += [description, ""]
     parts += [facts + ".", ""]
+    line = provenance_line(s.get("provenance"))
+    if line:
+        parts += [line, ""]
     for sec in kr.sections(s):
-        parts += [f"## {sec.title}", ""]
-        if sec.header is not None:
-            parts += [markdown_table(sec.header, sec.rows), ""]
-        if sec.text:
-            parts += [sec.text, ""]
+        parts += _markdown_section(sec)
+    parts += ["## Files", ""]
+    parts += [f"- [`{name}`]({name}): {what}" for name, what in report_links(result, kr)]
+    parts.append("")
     captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
         parts += ["## Figures", ""]
         for f in figures:
             parts += [f"![{f}]({f})", "", f"*{captions.get(f, f)}*", ""]
+    for sec in _provenance_sections(s):
+        parts += _markdown_section(sec)
     return "\n".join(parts)
 
 
+def _markdown_section(sec: Section) -> list[str]:
+    parts = [f"## {sec.title}", ""]
+    if sec.header is not None:
+        parts += [markdown_table(sec.header, sec.rows), ""]
+    if sec.text:
+        parts += [sec.text, ""]
+    return parts
+
+
 _CSS = """
-body { font-family: system-ui, sans-serif; max-width: 1150px; margin: 2em auto; padding: 0 1em;
+body { font-family: system-ui, sans-serif; max-width: 1280px; margin: 2em auto; padding: 0 1em;
        color: #222; line-height: 1.45; }
-table { border-collapse: collapse; margin: 1em 0; font-size: 0.92em; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.92em; display: block;
+        max-width: 100%; overflow-x: auto; }
 th, td { border: 1px solid #ccc; padding: 0.3em 0.6em; }
 th { background: #f2f2f2; }
 td { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
@@ -101,6 +139,8 @@ figure { margin: 1.5em 0; }
 img { max-width: 100%; }
 figcaption { color: #555; font-size: 0.9em; }
 code { background: #f4f4f4; padding: 0 0.2em; }
+.provenance { color: #555; font-size: 0.9em; }
+table.kv td { text-align: left; white-space: normal; overflow-wrap: anywhere; }
 """
 
 
@@ -115,12 +155,15 @@ def report_html(result: CampaignResult, kr: KindReport, figures: dict[str, bytes
     if description:
         out.append(f"<p>{e(description)}</p>")
     out.append(f"<p>{html_text(facts)}.</p>")
+    line = provenance_line(s.get("provenance"))
+    if line:
+        out.append(f'<p class="provenance">{html_text(line)}</p>')
     for sec in kr.sections(s):
-        out.append(f"<h2>{e(sec.title)}</h2>")
-        if sec.header is not None:
-            out.append(html_table(sec.header, sec.rows))
-        if sec.text:
-            out.append(f"<p>{html_text(sec.text)}</p>")
+        out += _html_section(sec)
+    out.append("<h2>Files</h2>")
+    out.append("<ul>" + "".join(f'<li><a href="{e(quote(name))}"><code>{e(name)}</code></a>: '
+                                f"{e(what)}</li>" for name, what in report_links(result, kr))
+               + "</ul>")
     captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
         out.append("<h2>Figures</h2>")
@@ -129,5 +172,16 @@ def report_html(result: CampaignResult, kr: KindReport, figures: dict[str, bytes
             out += ["<figure>", f'<img alt="{e(name)}" src="data:image/png;base64,{data}">',
                     f"<figcaption>{e(captions.get(name, name))}</figcaption>",
                     "</figure>"]
+    for sec in _provenance_sections(s):
+        out += _html_section(sec)
     out += ["</body>", "</html>", ""]
     return "\n".join(out)
+
+
+def _html_section(sec: Section) -> list[str]:
+    out = [f"<h2>{html.escape(sec.title)}</h2>"]
+    if sec.header is not None:
+        out.append(html_table(sec.header, sec.rows, "kv" if sec.key_value else None))
+    if sec.text:
+        out.append(f"<p>{html_text(sec.text)}</p>")
+    return out

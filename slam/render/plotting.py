@@ -17,7 +17,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Ellipse, Patch  # noqa: E402
+from matplotlib.ticker import (  # noqa: E402
+    FuncFormatter,
+    LogLocator,
+    MaxNLocator,
+    NullFormatter,
+)
 
+from slam.render.series import good_scores  # noqa: E402, F401  (re-exported)
 from slam.results import REFERENCE, Array, CampaignResult  # noqa: E402
 
 DPI = 110
@@ -61,12 +68,6 @@ def run0(result: CampaignResult):
     if first.truth is None or first.times is None or not first.tracks:
         raise ValueError("run 0 of the campaign kept no tracks: nothing to plot")
     return first
-
-
-def good_scores(result: CampaignResult, name: str) -> list:
-    """``name``'s scores over the runs it did not diverge on."""
-    return [o.scores[name] for o in result.outcomes
-            if name in o.scores and not o.scores[name].diverged]
 
 
 def save(fig: plt.Figure, path) -> None:
@@ -125,10 +126,13 @@ class ErrorPanel:
     note: str = ""
     reference: Array | None = None
     paper: Sequence[float] | None = None
+    settle: int = 0
+    """Epochs left out of the y range (a transient that would flatten the rest)."""
 
     def extent(self) -> list[float]:
         """The magnitudes the panel's y range must hold (not a diverged run's blow-up)."""
-        out = [] if self.env is None else [float(np.nanmax(np.abs(self.env)))]
+        env = None if self.env is None else np.abs(np.asarray(self.env)[:, self.settle:])
+        out = [] if env is None or not np.isfinite(env).any() else [float(np.nanmax(env))]
         return out + ([] if self.paper is None else [abs(v) for v in self.paper])
 
     def draw(self, ax: plt.Axes, t: Array, colour: str) -> None:
@@ -165,8 +169,11 @@ LEGEND = {
 class ErrorGrid:
     """The layout of an error grid: its columns, size, y axes, labels, legend, title.
 
-    ``ylabel`` is formatted with ``name`` (the row's filter) and ``axis`` (the column).
-    With ``sharey`` one y range holds every panel, else each column gets its own.
+    ``ylabel`` is formatted with ``name`` (the row's estimator) and ``axis`` (the column).
+    With ``sharey`` one y range holds every panel, else each column gets its own, or
+    each group of columns in ``groups`` (e.g. ``((0, 1), (2,))``: x and y share one range,
+    heading has its own).  ``legend`` lists the entries that may appear; only those drawn
+    in some panel are shown.
     """
 
     axes: Sequence[str]
@@ -176,33 +183,70 @@ class ErrorGrid:
     legend: Sequence[str]
     title: str
     sharey: bool = False
+    groups: Sequence[Sequence[int]] = ()
+    units: Sequence[str] = ()
+    """Per column, what ``{unit}`` in ``ylabel`` becomes."""
+
+
+def _drawn(p: ErrorPanel) -> set[str]:
+    """The legend entries panel ``p`` draws."""
+    out = {"error", "sigma"} if p.run0 is not None else set()
+    out |= {"envelope"} if p.env is not None else set()
+    out |= {"paper"} if p.paper else set()
+    return out | ({"reference"} if p.reference is not None else set())
 
 
 def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
-               panel: Callable[[str, int], ErrorPanel], colours: dict[str, str]) -> None:
-    """One row per filter, one column per ``grid.axes`` entry: ``panel(name, column)``."""
-    names = filter_names(result)
+               panel: Callable[[str, int], ErrorPanel], colours: dict[str, str],
+               names: Sequence[str] | None = None) -> None:
+    """One row per estimator in ``names`` (default: the filters), one column per
+    ``grid.axes`` entry: ``panel(name, column)``."""
+    names = list(filter_names(result) if names is None else names)
     t = run0(result).times
     fig, axes = plt.subplots(len(names), len(grid.axes),
                              figsize=(grid.width, grid.top + 1.9 * len(names)), sharex=True,
                              sharey=grid.sharey, squeeze=False, layout="constrained")
     lim = np.zeros(len(grid.axes))
+    drawn: set[str] = set()
     for row, name in enumerate(names):
         for col, axis in enumerate(grid.axes):
             ax, p = axes[row, col], panel(name, col)
             p.draw(ax, t, colours[name])
+            drawn |= _drawn(p)
             lim[col] = max([lim[col], *p.extent()])
-            ax.set_ylabel(grid.ylabel.format(name=name, axis=axis), fontsize=9)
+            unit = grid.units[col] if grid.units else ""
+            ax.set_ylabel(grid.ylabel.format(name=name, axis=axis, unit=unit), fontsize=9)
             if row == 0:
                 ax.set_title(f"{axis} error", fontsize=10)
             if row == len(names) - 1:
                 ax.set_xlabel("time (s)")
+    for group in grid.groups:
+        lim[list(group)] = max(lim[list(group)])
     _set_limits(axes, lim, grid.sharey)
-    legend = [LEGEND[k]() for k in grid.legend]
-    fig.legend(handles=legend, loc="outside lower center", fontsize=8, ncols=len(legend),
-               frameon=False)
+    legend = [LEGEND[k]() for k in grid.legend if k in drawn]
+    if legend:
+        fig.legend(handles=legend, loc="outside lower center", fontsize=9,
+                   ncols=len(legend), frameon=False)
     fig.suptitle(titled(result, grid.title), fontsize=11)
     save(fig, path)
+
+
+def readable_log_axis(ax: plt.Axes, axis: str = "y") -> None:
+    """Label a log axis densely enough to read values off it: evenly spaced round numbers
+    over less than 0.8 decades, 1-1.5-2-3-5-7 within a decade and a half, 1-2-5 within
+    four decades, powers of ten beyond; plain numbers."""
+    lo, hi = ax.get_ylim() if axis == "y" else ax.get_xlim()
+    decades = math.log10(hi / lo) if lo > 0 and hi > lo else 1.0
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    if decades <= 0.8:  # evenly spaced round numbers read best over a short span
+        target.set_major_locator(MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]))
+    else:
+        subs = ((1.0, 1.5, 2.0, 3.0, 5.0, 7.0) if decades <= 1.5 else
+                (1.0, 2.0, 5.0) if decades <= 4 else (1.0,))
+        target.set_major_locator(LogLocator(base=10.0, subs=subs))
+    target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    target.set_minor_locator(LogLocator(base=10.0, subs=np.arange(1.0, 10.0)))
+    target.set_minor_formatter(NullFormatter())
 
 
 def _set_limits(axes: np.ndarray, lim: Array, shared: bool) -> None:

@@ -7,6 +7,7 @@ import html
 import json
 import math
 import os
+import textwrap
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -15,6 +16,10 @@ import numpy as np
 
 MISSING = "—"
 PAPER_AXES = ("x", "y", "z")
+TERMINAL_WIDTH = 100
+"""The terminal table and its notes fit this many columns."""
+MIN_INSIDE = 0.90
+"""Fraction of epochs inside the per-epoch 95 % band needed to call a filter consistent."""
 
 
 def jsonable(obj: Any) -> Any:
@@ -70,6 +75,51 @@ def anees_cell(entry: dict[str, Any], key: str = "anees", band: str = "anees_bou
     return value if bounds == MISSING else f"{value} {bounds}"
 
 
+def verdict(entry: dict[str, Any], key: str = "anees", band: str = "anees_bounds_95",
+            inside: str = "anees_steps_inside_95", above: str = "anees_steps_above_95"
+            ) -> str:
+    """The consistency of a summary entry in a word (``""`` without a NEES).
+
+    ``consistent`` only when the ANEES is inside its 95 % band AND at least
+    :data:`MIN_INSIDE` of the epochs' run-averaged NEES are; otherwise ``optimistic``
+    (overconfident: the ANEES above the band, or most epochs outside it above),
+    ``pessimistic`` (too cautious: below) or ``mixed`` (outside on both sides, ANEES
+    inside)."""
+    value, bounds, frac = entry.get(key), entry.get(band), entry.get(inside)
+    if num(value, "g") == MISSING or interval(bounds) == MISSING:
+        return ""
+    lo, hi = bounds
+    if value > hi:
+        return "optimistic"
+    if value < lo:
+        return "pessimistic"
+    if num(frac, "g") == MISSING:
+        return ""
+    if frac >= MIN_INSIDE:
+        return "consistent"
+    up = entry.get(above)
+    if num(up, "g") == MISSING:
+        return "mixed"
+    outside = 1.0 - frac
+    return ("optimistic" if up >= 0.75 * outside else
+            "pessimistic" if up <= 0.25 * outside else "mixed")
+
+
+def consistency_rule() -> str:
+    """The rule :func:`verdict` applies, in words (for the reports' notes)."""
+    return (f"A filter is called consistent only when its ANEES lies inside the 95 % band "
+            f"AND at least {100 * MIN_INSIDE:.0f} % of the epochs' run-averaged NEES lie "
+            "inside it (a consistent filter scores about 95 %); otherwise the verdict says "
+            "on which side it fails: optimistic (overconfident: NEES above the band, errors "
+            "larger than the filter's own σ) or pessimistic (too cautious: below); mixed: "
+            "outside on both sides.")
+
+
+def percent(v: Any) -> str:
+    """``"78 %"`` from a fraction."""
+    return num(v, ".0f", 100.0) + " %" if num(v, "g") != MISSING else MISSING
+
+
 def diverged_cell(entry: dict[str, Any]) -> str:
     """``"2/50"``: runs diverged out of the runs made (``"2"`` if that is unknown)."""
     scored, diverged = entry.get("runs_scored"), entry.get("diverged_runs")
@@ -112,11 +162,34 @@ def anees_column(header: str, key: str = "anees", band: str = "anees_bounds_95")
     return Column(header, lambda name, entry: anees_cell(entry, key, band))
 
 
+def consistency_keys(prefix: str = "anees") -> tuple[str, str, str, str]:
+    """The summary keys of one NEES: value, band, fraction of epochs inside, above."""
+    return (prefix, f"{prefix}_bounds_95", f"{prefix}_steps_inside_95",
+            f"{prefix}_steps_above_95")
+
+
+def consistency_columns(prefix: str = "anees", what: str = "", band: bool = True,
+                        headers: Sequence[str] | None = None) -> tuple[Column, ...]:
+    """ANEES (with its band unless ``band`` is False), the fraction of epochs inside the
+    band and the :func:`verdict`, for the keys of :func:`consistency_keys`; ``headers``
+    replaces the three default headers."""
+    keys = consistency_keys(prefix)
+    sep = " " if what else ""
+    h = headers or (f"ANEES{sep}{what}" + (" [95 % band]" if band else ""),
+                    f"{what}{sep}in band".strip(), f"{what}{sep}verdict".strip())
+    first = (anees_column(h[0], keys[0], keys[1]) if band else
+             Column(h[0], value(keys[0], ".2f")))
+    return (first, Column(h[1], lambda n, e: percent(e.get(keys[2]))),
+            Column(h[2], lambda n, e: verdict(e, *keys) or MISSING))
+
+
 ESTIMATOR = Column("estimator", lambda name, entry: name)
 POS_RMSE = Column("pos RMSE (m)", value("pos_rmse_m", ".3f"))
 LANDMARK_RMSE = Column("landmark RMSE (m)", value("landmark_rmse_m", ".3f"))
 NIS = Column("NIS/dof", value("nis_mean", ".2f"))
 DIVERGED = Column("diverged runs", lambda name, entry: diverged_cell(entry))
+DIVERGED_SHORT = Column("diverged\nruns", DIVERGED.cell)
+"""The diverged runs under a two-line header (terminal tables)."""
 
 
 @dataclass(frozen=True)
@@ -144,39 +217,91 @@ class Table:
 def slam_table(axes: Iterable[str], orientation: Column, anees: Iterable[Column],
                time: Column) -> Table:
     """The results table of a SLAM kind: the estimator, its position RMSE and error
-    range per axis, ``orientation``, landmark RMSE, ``anees``, NIS/dof, ``time`` per step
-    and the diverged runs."""
+    range per axis, ``orientation``, landmark RMSE, ``anees`` (e.g.
+    :func:`consistency_columns`), NIS/dof, ``time`` per step and the diverged runs."""
     return Table((ESTIMATOR, POS_RMSE, *map(error_range, axes), orientation, LANDMARK_RMSE,
                   *anees, NIS, time, DIVERGED))
 
 
+def terminal_text(table: Table, summary: dict[str, Any], notes: Iterable[str] = ()) -> str:
+    """A compact terminal table (headers may hold a line break) followed by the failure
+    reasons of every estimator that diverged and the ``notes``, every line wrapped to
+    :data:`TERMINAL_WIDTH` columns."""
+    lines = [plain_table(table.header, table.rows(summary))]
+    lines += [wrap(n) for n in [*failure_notes(summary), *notes] if n]
+    return "\n".join(lines)
+
+
+def wrap(text: str, width: int = TERMINAL_WIDTH) -> str:
+    """``text`` wrapped to ``width`` columns, continuation lines indented by two."""
+    return textwrap.fill(text, width, subsequent_indent="  ", break_on_hyphens=False)
+
+
+def failure_notes(summary: dict[str, Any]) -> list[str]:
+    """One line per estimator that diverged on some run: how often, and why."""
+    out = []
+    for name, entry in estimator_entries(summary):
+        diverged = entry.get("diverged_runs")
+        if isinstance(diverged, int) and not isinstance(diverged, bool) and diverged > 0:
+            reasons = "; ".join(r for r in entry.get("failures") or [] if r) or "no reason given"
+            out.append(f"{name} diverged on {diverged_cell(entry)} runs: {reasons}")
+        elif entry.get("diverged") is True:
+            out.append(f"{name} diverged: {entry.get('failure') or 'no reason given'}")
+    return out
+
+
+def band_note(summary: dict[str, Any], key: str = "anees_bounds_95", what: str = "ANEES"
+              ) -> str:
+    """The 95 % band(s) of the summary's ANEES and the verdict rule, in one note."""
+    bands = sorted({interval(e.get(key), ".2f") for _, e in estimator_entries(summary)}
+                   - {MISSING})
+    if not bands:
+        return ""
+    return (f"{what} 95 % band {' / '.join(bands)}; in band: epochs whose run average lies "
+            f"inside it; verdict: consistent only if the {what} and at least "
+            f"{100 * MIN_INSIDE:.0f} % of epochs are in the band.")
+
+
 def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
-    """A GitHub-flavoured Markdown table, numbers right-aligned."""
+    """A GitHub-flavoured Markdown table, numbers right-aligned (line breaks in header
+    cells become spaces, pipes in cells are escaped)."""
+    def cell(c: str) -> str:
+        return c.replace("\n", " ").replace("|", "\\|")
+
     align = ["---"] + ["---:"] * (len(header) - 1)
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    lines = ["| " + " | ".join(map(cell, header)) + " |", "|" + "|".join(align) + "|"]
+    lines += ["| " + " | ".join(map(cell, r)) + " |" for r in rows]
     return "\n".join(lines)
 
 
 def plain_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
-    """An aligned plain-text table: first column left-aligned, the others right-aligned."""
-    body = [list(header)] + [list(r) for r in rows]
-    widths = [max(len(r[i]) for r in body) for i in range(len(header))]
+    """An aligned plain-text table: first column left-aligned, the others right-aligned.
+
+    A header cell may hold line breaks (``"pos RMSE\\n(m)"``): the header then takes as
+    many lines, bottom-aligned, and the column is only as wide as its longest line."""
+    split = [h.split("\n") for h in header]
+    depth = max(len(h) for h in split)
+    head = [[""] * (depth - len(h)) + h for h in split]  # bottom-aligned
+    head_rows = [[h[i] for h in head] for i in range(depth)]
+    body = [list(r) for r in rows]
+    widths = [max(len(r[i]) for r in head_rows + body) for i in range(len(header))]
 
     def line(r: list[str]) -> str:
         cells = [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:])]
         return "  ".join(cells).rstrip()
 
     rule = "  ".join("-" * w for w in widths)
-    return "\n".join([line(body[0]), rule] + [line(r) for r in body[1:]])
+    return "\n".join([*map(line, head_rows), rule] + [line(r) for r in body])
 
 
-def html_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
-    """An HTML table, cells escaped."""
+def html_table(header: Sequence[str], rows: Iterable[Sequence[str]], cls: str | None = None
+               ) -> str:
+    """An HTML table, cells escaped (``cls``: its CSS class)."""
     e = html.escape
-    head = "".join(f"<th>{e(h)}</th>" for h in header)
+    head = "".join(f"<th>{e(h.replace(chr(10), ' '))}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>\n" for r in rows)
-    return f"<table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}</tbody>\n</table>"
+    attr = f' class="{e(cls)}"' if cls else ""
+    return f"<table{attr}>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}</tbody>\n</table>"
 
 
 def html_text(text: str) -> str:

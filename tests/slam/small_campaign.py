@@ -21,7 +21,8 @@ PAPER = {
     "filters": {"srckf": {"pos_err_range_m": {"x": [-0.5, 0.6], "y": [-0.5, 0.2]}},
                 "srukf": {"pos_err_range_m": {"x": [-0.7, 1.4], "y": [-1.15, 1.6]}}},
 }
-FIGURES = {"map.png", "errors_xy.png", "nees.png"}
+FIGURES = {"map.png", "errors_xy.png", "rmse_sigma.png", "nees.png", "landmarks.png",
+           "differences.png"}
 
 
 def _reject_constant(name: str):
@@ -45,8 +46,23 @@ def plain(obj):
     return obj
 
 
+def sample_provenance(summary: dict, source: str | None) -> dict:
+    """A provenance block as the command line would add it (fixed date and wall time)."""
+    import datetime as dt
+
+    from slam.render.provenance import provenance
+
+    return provenance(argv=["slam", "run", source or "log.txt", "--workers", "1"],
+                      source=source, seed=summary.get("seed"), runs=summary.get("runs"),
+                      workers=1, started=dt.datetime(2026, 1, 2, 3, 4, 5, tzinfo=dt.UTC),
+                      wall_time_s=1.25)
+
+
 def small_planar_result() -> CampaignResult:
-    """Two runs of ekf and srckf on the small planar world, with :data:`PAPER` quoted."""
+    """Two runs of ekf and srckf on the small planar world, with :data:`PAPER` quoted and a
+    provenance block."""
     world = small_world(runs=2, filters=FILTERS)
     r = run_campaign(world, runs=2, workers=1)
-    return CampaignResult(r.world, {**r.summary, "paper": PAPER}, r.outcomes)
+    summary = {**r.summary, "paper": PAPER}
+    summary["provenance"] = sample_provenance(summary, "small.toml")
+    return CampaignResult(r.world, summary, r.outcomes)

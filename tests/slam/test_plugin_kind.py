@@ -264,8 +264,8 @@ def test_a_kind_defined_in_a_test_runs_through_the_cli(tracker_kind, tmp_path):
     assert math.isclose(ekf["pos_rmse_m"], srckf["pos_rmse_m"], rel_tol=1e-8)
 
     # the report: the generic renderer with the kind's one section, no figures
-    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md",
-                                                     "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".slam-output", "report.html",
+                                                     "report.md", "summary.json"]
     md = (out / "report.md").read_text(encoding="utf-8")
     assert md.startswith("# line: 1-D constant-velocity tracking\n")
     assert "Plug-in test: a target on a line" in md

@@ -17,6 +17,7 @@ from slam.scoring import (
     nees_series,
     nis_and_timing,
     per_epoch_anees,
+    track_frame,
 )
 
 # --------------------------------------------------------------------------- NEES
@@ -103,6 +104,7 @@ def test_anees_stats_value_band_and_fraction_of_epochs_inside():
     assert stats["value"] == pytest.approx(per_epoch.mean(), rel=1e-14)
     assert stats["band"] == [lo, hi]
     assert stats["inside"] == pytest.approx(3 / 5, rel=1e-14)
+    assert stats["above"] == pytest.approx(1 / 5, rel=1e-14)
     assert stats["distance"] == 0.0  # the ANEES (1.52) itself is inside the band
     # the band is for the number of runs and the dof given
     two = anees_stats(nees[:, :4] * 2.0 / 3.0, 2)
@@ -136,3 +138,17 @@ def test_nis_per_dof_and_timing():
     assert out["time_per_run_s"] == pytest.approx(1.0, rel=1e-14)
     none = nis_and_timing([_Run(np.zeros(0), np.zeros(0, int), 0, 0.0)])
     assert "nis_mean" not in none and none["time_per_step_s"] == 0.0
+
+
+def test_track_frame_rotates_errors_and_covariances_into_the_heading():
+    # heading +90°: along-track is +y, cross-track (left) is -x
+    err = np.array([[1.0, 2.0], [3.0, -1.0]])
+    cov = np.array([np.diag([4.0, 9.0]), [[2.0, 1.0], [1.0, 2.0]]])
+    along, sig = track_frame(err, cov, np.array([np.pi / 2, np.pi / 4]))
+    np.testing.assert_allclose(along[0], [2.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(sig[0], [3.0, 2.0], atol=1e-12)
+    # 45°: along = (x + y)/√2, cross = (y - x)/√2; variances 3 and 1 along the eigenvectors
+    np.testing.assert_allclose(along[1], [2.0 / np.sqrt(2), -4.0 / np.sqrt(2)], atol=1e-12)
+    np.testing.assert_allclose(sig[1], [np.sqrt(3.0), 1.0], atol=1e-12)
+    _, nan = track_frame(err[:1], np.full((1, 2, 2), np.nan), np.zeros(1))
+    assert np.isnan(nan).all()

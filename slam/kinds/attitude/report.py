@@ -1,31 +1,37 @@
-"""Figures and tables of an ``attitude`` (star-sensor) campaign.
-
-Figure functions take a :class:`~slam.results.CampaignResult` from
-:func:`slam.kinds.attitude.run.run_once` / ``summarize_attitude`` and a path:
-
-    attitude_errors.png  run 0: roll / pitch / yaw error (Z-X-Y, arcsec) vs time per
-                         estimator, with the estimator's own ±3σ band
-    bias.png             run 0: gyro-bias estimates vs the truth (deg/h), per axis
+"""Tables and report of an ``attitude`` (star-sensor) campaign.
 
 :func:`attitude_tables` renders the summary dict alone as Markdown: our errors,
-consistency and timing, then the paper's Table 2 next to ours.  :func:`figure_writers`
-maps file names to the figure functions; :data:`REPORT` is the
-:class:`~slam.render.document.KindReport` of ``kind = "attitude"`` (sections, captioned
-figures, terminal table).
+consistency and timing, then the paper's Table 2 next to ours; :func:`text_table` is the
+compact terminal table.  The figures are in :mod:`slam.kinds.attitude.figures`;
+:data:`REPORT` is the :class:`~slam.render.document.KindReport` of ``kind = "attitude"``
+(sections, captioned figures, terminal table).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H
-from slam.render.document import KindReport, Section, captioned
-from slam.render.plotting import EIGHT_COLOURS, estimator_colours, plt, run0, save, titled
-from slam.render.tables import MISSING, estimator_entries, markdown_table, num, plain_table
+from slam.kinds.attitude.figures import figure_specs
+from slam.kinds.attitude.run import AXES
+from slam.render.document import KindReport, Section
+from slam.render.figures import figure_table
+from slam.render.tables import (
+    MISSING,
+    anees_cell,
+    band_note,
+    consistency_keys,
+    consistency_rule,
+    estimator_entries,
+    failure_notes,
+    markdown_table,
+    num,
+    percent,
+    plain_table,
+    verdict,
+    wrap,
+)
 from slam.results import REFERENCE, CampaignResult
 
 _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
@@ -38,42 +44,44 @@ def _triple(d: Any, fmt: str = ".1f") -> list[str]:
     return [num(d.get(a), fmt) for a in AXES]
 
 
-def _anees(entry: dict[str, Any], key: str = "anees") -> str:
-    value = num(entry.get(key), ".2f")
-    band = entry.get("anees_bounds_95")
-    if value == MISSING or not isinstance(band, list | tuple) or len(band) != 2:
-        return value
-    lo, hi = float(band[0]), float(band[1])
-    inside = lo <= float(entry[key]) <= hi
-    return f"{value} [{lo:.2f}, {hi:.2f}]{'' if inside else ' (outside)'}"
-
-
 def _label(name: str) -> str:
     return _LABELS.get(name, name)
 
 
-RESULT_HEADER = ("estimator", "roll", "pitch", "yaw", "roll (ss)", "pitch (ss)", "yaw (ss)",
-                 "RMS roll (ss)", "RMS pitch (ss)", "RMS yaw (ss)", "bias RMSE (deg/h)",
-                 "ANEES [95 % band]", "ANEES (ss)", "time/cycle (ms)", "diverged")
+RESULT_HEADER = ("estimator", "mean |error| roll/pitch/yaw (″)", "steady state (ss)",
+                 "RMS (ss)", "bias RMSE (deg/h)", "ANEES [95 % band]", "in band", "verdict",
+                 "ANEES (ss)", "time/cycle (ms)", "diverged runs")
 PAPER_HEADER = ("filter", "roll paper", "roll ours", "pitch paper", "pitch ours",
                 "heading paper", "yaw ours", "time paper (s)", "time ours (s)")
 CONVERGENCE_HEADER = ("estimator", "median (s)", "max (s)", "never")
 
 
+def _consistency(e: dict[str, Any]) -> list[str]:
+    keys = consistency_keys()
+    return [anees_cell(e), percent(e.get(keys[2])), verdict(e, *keys) or MISSING]
+
+
+def _diverged(e: dict[str, Any]) -> str:
+    diverged, scored = e.get("diverged_runs"), e.get("runs_scored")
+    return MISSING if diverged is None else f"{diverged}/{(scored or 0) + diverged}"
+
+
+def _slashed(d: Any) -> str:
+    cells = _triple(d)
+    return MISSING if all(c == MISSING for c in cells) else "/".join(cells)
+
+
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
-    """One row per filter and the smoother (columns :data:`RESULT_HEADER`)."""
+    """One row per filter and the smoother (columns :data:`RESULT_HEADER`); the smoother's
+    time is per run, in the notes, not per cycle."""
     rows = []
     for name, e in estimator_entries(summary):
-        time_cell = (num(e.get("time_per_cycle_s"), ".3f", 1e3) if name != REFERENCE
-                     else f"{num(e.get('time_s'), '.2f')} s/run")
-        diverged = e.get("diverged_runs")
-        scored = e.get("runs_scored")
-        rows.append([_label(name), *_triple(e.get("att_mean_abs_arcsec")),
-                     *_triple(e.get("att_mean_abs_steady_arcsec")),
-                     *_triple(e.get("att_rms_steady_arcsec")),
-                     num(e.get("bias_rmse_deg_h"), ".3f"), _anees(e),
-                     _anees(e, "anees_steady"), time_cell,
-                     MISSING if diverged is None else f"{diverged}/{(scored or 0) + diverged}"])
+        rows.append([_label(name), _slashed(e.get("att_mean_abs_arcsec")),
+                     _slashed(e.get("att_mean_abs_steady_arcsec")),
+                     _slashed(e.get("att_rms_steady_arcsec")),
+                     num(e.get("bias_rmse_deg_h"), ".3f"), *_consistency(e),
+                     num(e.get("anees_steady"), ".2f"),
+                     num(e.get("time_per_cycle_s"), ".3f", 1e3), _diverged(e)])
     return rows
 
 
@@ -101,14 +109,21 @@ def convergence_rows(summary: dict[str, Any]) -> list[list[str]]:
             for n, e in estimator_entries(summary) if "converge_below_1arcmin_s" in e]
 
 
+def _smoother_time(summary: dict[str, Any]) -> str:
+    ref = (summary.get("reference") or {}).get(REFERENCE) or {}
+    t = num(ref.get("time_s"), ".2f")
+    return "" if t == MISSING else f"The smoother takes {t} s per run (graph, preintegration " \
+        "and solve; it has no per-cycle time)."
+
+
 def _results_text(summary: dict[str, Any]) -> str:
     window = summary.get("steady_state_window_s") or [None, None]
     return (f"Attitude errors in arcsec, Z-X-Y Euler angles (the paper's), mean absolute over "
             f"the whole run and over the steady-state window (ss) "
             f"{num(window[0], 'g')}-{num(window[1], 'g')} s; {summary.get('runs', '?')} "
-            "runs. `ekf` is the multiplicative EKF (MEKF). The smoother's time is per run "
-            "(graph, preintegration and solve). Cycle times are wall-clock inside the "
-            "campaign's workers (see `benchmarks/star_sensor_speed.py` for an unloaded figure).")
+            "runs. `ekf` is the multiplicative EKF (MEKF). " + _smoother_time(summary)
+            + " Cycle times are wall-clock inside the campaign's workers (see "
+            "`benchmarks/star_sensor_speed.py` for an unloaded figure). " + consistency_rule())
 
 
 PAPER_TEXT = ("Paper's Table 2 (mean absolute error, arcsec; one iteration in the authors' "
@@ -156,117 +171,25 @@ def _paper_statement(summary: dict[str, Any]) -> str | None:
     return paper.get("statement") or (paper.get("large_error") or {}).get("statement")
 
 
+COMPACT_HEADER = ("estimator", "mean |err| (″)\nroll/pitch/yaw", "ss mean (″)\nroll/pitch/yaw",
+                  "bias RMSE\n(deg/h)", "ANEES", "in\nband", "verdict",
+                  "time/cycle\n(ms)", "diverged\nruns")
+
+
 def text_table(summary: dict[str, Any]) -> str:
-    """The results table as aligned plain text (for the terminal)."""
-    header = ["estimator", "roll", "pitch", "yaw", "roll ss", "pitch ss", "yaw ss",
-              "bias RMSE", "ANEES [band]", "ms/cycle", "diverged"]
-    rows = [[r[0], *r[1:7], r[10], r[11], r[13], r[14]] for r in result_rows(summary)]
-    return plain_table(header, rows) + "\n(attitude errors: mean absolute, arcsec, Z-X-Y Euler)"
-
-
-# --------------------------------------------------------------------------- figures
-
-def _colours(names: Sequence[str]) -> dict[str, str]:
-    return estimator_colours(names, EIGHT_COLOURS)
-
-
-def _estimators(result: CampaignResult) -> list[str]:
-    names = list((result.summary.get("filters") or {}).keys())
-    first = result.outcomes[0]
-    return [n for n in [*names, REFERENCE] if n in first.scores]
-
-
-def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
-    """Run 0's roll/pitch/yaw errors (arcsec) with ±3σ, one column per estimator."""
-    first = run0(result)
-    t = first.times
-    names = _estimators(result)
-    colours = _colours(names)
-    fig, axes = plt.subplots(3, len(names), figsize=(3.2 * len(names) + 1.0, 7.0),
-                             sharex=True, sharey=True, squeeze=False, layout="constrained")
-    settle = t >= min(t[-1], 10.0)  # ylim from after the first seconds' transient
-    lim = 0.0
-    for col, name in enumerate(names):
-        s = first.scores[name]
-        err = s.err_euler / ARCSEC
-        band = 3.0 * s.sigma_euler / ARCSEC
-        for row, axis in enumerate(AXES):
-            ax = axes[row, col]
-            ok = np.isfinite(band[:, row])
-            if ok.any():
-                ax.fill_between(t, -band[:, row], band[:, row], where=ok, color=colours[name],
-                                alpha=0.18, lw=0, label="±3σ (own)")
-            ax.plot(t, err[:, row], color=colours[name], lw=0.7, label="error")
-            ax.axhline(0.0, color="0.3", lw=0.5)
-            ax.grid(True, lw=0.3, alpha=0.5)
-            if row == 0:
-                ax.set_title(_label(name), fontsize=9)
-            if col == 0:
-                ax.set_ylabel(f"{axis} error (″)")
-            if row == 2:
-                ax.set_xlabel("time (s)")
-            vals = np.concatenate([np.abs(err[settle, row]), band[settle, row]])
-            vals = vals[np.isfinite(vals)]
-            if vals.size:
-                lim = max(lim, float(np.percentile(vals, 99.5)))
-    if lim > 0.0:
-        axes[0, 0].set_ylim(-1.15 * lim, 1.15 * lim)
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=8, frameon=False)
-    fig.suptitle(titled(result, "run 0 attitude errors (Z-X-Y Euler, arcsec) and each "
-                                "estimator's ±3σ"), fontsize=10)
-    save(fig, path)
-
-
-def plot_bias(result: CampaignResult, path: Path) -> None:
-    """Run 0's gyro-bias estimates vs the truth (deg/h), one panel per axis."""
-    first = run0(result)
-    t = first.times
-    truth = first.truth[:, 4:] / DEG_H
-    names = [n for n in _estimators(result) if n in first.tracks]
-    colours = _colours(names)
-    fig, axes = plt.subplots(3, 1, figsize=(8.0, 7.0), sharex=True, layout="constrained")
-    for row, axis in enumerate(("x", "y", "z")):
-        ax = axes[row]
-        filters = [n for n in names if n != REFERENCE]
-        for name in names:
-            b = first.tracks[name].bias[:, row] / DEG_H
-            if name == REFERENCE:
-                ax.plot(t, b, color=colours[name], lw=1.0, ls="--", label=_label(name))
-            else:  # filters often coincide: draw the first ones wider so all stay visible
-                lw = 0.8 + 0.9 * (len(filters) - 1 - filters.index(name))
-                ax.plot(t, b, color=colours[name], lw=lw, label=_label(name))
-        ax.plot(t, truth[:, row], color="black", lw=1.4, label="truth")
-        ax.set_ylabel(f"bias {axis} (deg/h)")
-        ax.grid(True, lw=0.3, alpha=0.5)
-        settle = t >= min(t[-1], 30.0)
-        vals = np.concatenate([truth[settle, row]] + [
-            first.tracks[n].bias[settle, row] / DEG_H for n in names])
-        vals = vals[np.isfinite(vals)]
-        if vals.size:
-            lo, hi = float(vals.min()), float(vals.max())
-            pad = 0.15 * max(hi - lo, 1e-3)
-            ax.set_ylim(lo - pad, hi + pad)
-    axes[-1].set_xlabel("time (s)")
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8,
-               frameon=False)
-    fig.suptitle(titled(result, "run 0 gyro-bias estimates vs truth (the first seconds' "
-                                "transient is off the scale;\ncoinciding filters are drawn "
-                                "with decreasing line widths)"), fontsize=10)
-    save(fig, path)
-
-
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {"attitude_errors.png": plot_attitude_errors, "bias.png": plot_bias}
-
-
-FIGURE_CAPTIONS = {
-    "attitude_errors.png": "Run 0: roll, pitch and yaw error (Z-X-Y Euler, arcsec) of every "
-                           "estimator with its own ±3σ band.",
-    "bias.png": "Run 0: gyro-bias estimates against the true bias (deg/h), per body axis.",
-}
+    """The compact terminal table (≤ 100 columns), failure reasons and notes."""
+    keys = consistency_keys()
+    rows = [[name, _slashed(e.get("att_mean_abs_arcsec")),
+             _slashed(e.get("att_mean_abs_steady_arcsec")), num(e.get("bias_rmse_deg_h"), ".3f"),
+             num(e.get("anees"), ".2f"), percent(e.get(keys[2])), verdict(e, *keys) or MISSING,
+             num(e.get("time_per_cycle_s"), ".3f", 1e3), _diverged(e)]
+            for name, e in estimator_entries(summary)]
+    window = summary.get("steady_state_window_s") or [None, None]
+    notes = [*failure_notes(summary), band_note(summary),
+             f"Attitude errors: mean absolute, arcsec, Z-X-Y Euler angles; ss: steady state "
+             f"{num(window[0], 'g')}-{num(window[1], 'g')} s. ekf is the MEKF. "
+             + _smoother_time(summary)]
+    return "\n".join([plain_table(COMPACT_HEADER, rows), *(wrap(n) for n in notes if n)])
 
 
 def attitude_sections(summary: dict[str, Any]) -> list[Section]:
@@ -287,7 +210,13 @@ def attitude_sections(summary: dict[str, Any]) -> list[Section]:
 
 
 def attitude_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
-    return captioned(figure_writers(), FIGURE_CAPTIONS)
+    """File name -> (function drawing it, caption)."""
+    return figure_table(figure_specs())
+
+
+def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
+    """File name -> function drawing it."""
+    return {s.name: s.draw for s in figure_specs()}
 
 
 REPORT = KindReport("star-sensor attitude campaign", attitude_sections, attitude_figures,

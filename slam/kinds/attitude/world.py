@@ -37,6 +37,7 @@ import numpy as np
 
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES  # the one list of filter names
+from worlds import limits
 
 KIND = "attitude"
 STAR_MODES = ("quaternion", "vectors")
@@ -290,12 +291,24 @@ def _directions(star: dict[str, Any], at: ws.Where) -> tuple[tuple[float, float,
     return dirs
 
 
+def check_sizes(v: dict[str, Any], root: ws.Where) -> None:
+    """Gyro samples and star epochs of a run against :mod:`worlds.limits`."""
+    duration = v["duration_s"]
+    for key, what, limit in (("gyro.rate_hz", "gyro samples", limits.MAX_SAMPLES),
+                             ("star_sensor.rate_hz", "star epochs", limits.MAX_EPOCHS)):
+        rate = ws.value_at(v, key)
+        why = f"duration_s = {duration:g} at {rate:g} Hz"
+        if msg := limits.over(what, duration * rate, limit, why):
+            raise root.child(key).error(msg, rate)
+
+
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> AttitudeWorld:
     """Validate a parsed ``attitude`` TOML document and build its :class:`AttitudeWorld`."""
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
     ws.check_rules(RULES, v, root)
+    check_sizes(v, root)
     dirs = _directions(v["star_sensor"], root.child("star_sensor.directions"))
     return ws.build(WORLD, v, name=name, source=source,
                     star=ws.build(SCHEMA["star_sensor"], v["star_sensor"], directions=dirs))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,9 @@ class DroneEstimate:
     ``[δp (world frame), δθ (body frame)]`` (NaN where none); landmark_ids (L,) (``-1``
     for one created by nearest-neighbour association), landmarks (L, 3), landmark_cov
     (L, 3, 3); nis, nis_dof per batch update; time_s wall time of ``steps`` epochs;
-    extra_time_s (the smoother's marginals).
+    extra_time_s (the smoother's marginals); nis_epoch (U,) the epoch of each update,
+    vehicle_var (E, 15) the error state's variances, map_series the map per epoch (filters
+    only, :class:`~slam.mapping.map_series.MapSeries`).
     """
 
     name: str
@@ -62,6 +65,9 @@ class DroneEstimate:
     diverged: bool = False
     failure: str | None = None
     extra_time_s: float = 0.0
+    nis_epoch: Array | None = None
+    vehicle_var: Array | None = None
+    map_series: Any = None
 
 
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
@@ -111,7 +117,7 @@ def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
         observe=lambda slots, index: observation_model(slots, obs_cov),
         augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
         layout=DRONE_LAYOUT, truth=log.truth, position_dims=3,
-        nearest=nearest, record_rows=POSE_ROWS)
+        nearest=nearest, record_rows=POSE_ROWS, true_landmarks=log.landmarks)
 
 
 def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
@@ -128,7 +134,9 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
     x = r.poses
     return DroneEstimate(filter_name, x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:16], r.pose_cov,
                          r.landmark_ids, r.landmarks, r.landmark_cov, r.nis, r.nis_dof,
-                         r.time_s, max(r.epochs_done, 1), r.diverged, r.failure)
+                         r.time_s, max(r.epochs_done, 1), r.diverged, r.failure,
+                         nis_epoch=r.nis_epoch, vehicle_var=r.vehicle_var,
+                         map_series=r.map_series)
 
 
 def imu_only(log: DroneLog, imu_noise_scale: float = 1.0, chunk: int = 100) -> DroneEstimate:

@@ -239,3 +239,14 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     return DroneEstimate(REFERENCE, p, v, q, bias, pcov, ids, lms, lcov, np.zeros(0),
                          np.zeros(0, int), t_solved - t_start, E - 1,
                          extra_time_s=t_end - t_solved)
+
+
+def failed_reference(log: DroneLog, failure: str) -> DroneEstimate:
+    """The smoother's entry of a run it failed on (:mod:`slam.failures`): no estimate,
+    diverged with its reason."""
+    E = log.n_epochs
+    nan = np.full((E, 3), np.nan)
+    return DroneEstimate(REFERENCE, nan, nan, np.full((E, 4), np.nan), np.full((E, 6), np.nan),
+                         np.full((E, 6, 6), np.nan), np.zeros(0, int), np.zeros((0, 3)),
+                         np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int), 0.0, E - 1,
+                         diverged=True, failure=failure)

@@ -7,8 +7,14 @@ The report folder of a ``drone-slam`` world (written by
     report.md / .html   results table, paper-vs-ours x/y/z error ranges, notes, figures
     errors_xyz.png      x / y / z error vs time per filter: run 0, its ±2σ, the Monte
                         Carlo envelope, the smoother's run 0, the paper's ranges
-    attitude.png        roll / pitch / yaw error vs time per filter (run 0, ±2σ, envelope)
-    nees.png            run-averaged position NEES / 3 and pose NEES / 6 vs their bands
+    attitude.png        roll / pitch / yaw error (Z-Y-X Euler) vs time per filter
+    rmse_sigma.png      Monte Carlo RMSE vs the RMS of the own σ: position, velocity,
+                        attitude, along- / cross-track
+    bias.png            run 0's gyro and accelerometer bias estimates vs truth, ±2σ
+    nees.png            position, pose and attitude NEES and the NIS vs time in their
+                        bands; per-run histograms
+    landmarks.png       landmark RMSE / NEES, landmarks in the state, map covariance trace
+    differences.png     each filter minus SRCKF on the same runs
     drift.png           position error norm vs time: IMU only vs the filters vs the smoother
     view3d.png          terrain surface, landmarks, true / filtered / smoothed paths (run 0)
     scene.glb           the same scene as a glTF binary (terrain mesh, landmark markers,
@@ -16,47 +22,54 @@ The report folder of a ``drone-slam`` world (written by
     <name>.tum          run 0's trajectories (``t x y z qx qy qz qw``) and ``truth.tum``
 
 :func:`drone_figures` draws the PNG figures alone, :mod:`slam.kinds.drone.scene` the glTF
-scene and the trajectories; :func:`drone_text_table` is the plain-text results table for
-the command line.
+scene and the trajectories, :mod:`slam.kinds.drone.figures` the figure specs;
+:func:`drone_text_table` is the compact results table for the command line.
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from slam.kinds.drone.figures import ATTITUDE, POSITION, shared_specs
 from slam.kinds.drone.scene import (
     IMU_ONLY,
     drone_colours,
     result_terrain,
+    tum_names,
     write_scene_glb,
     write_tum_3d,
 )
-from slam.render.document import KindReport, Section, captioned, paper_ranges_section
+from slam.render.document import KindReport, Link, Section, paper_ranges_section
+from slam.render.figures import (
+    FigureSpec,
+    error_grid_figure,
+    figure_table,
+    quoted_position_range,
+)
 from slam.render.plotting import (
-    ErrorGrid,
-    ErrorPanel,
-    envelope,
-    error_grid,
     filter_names,
     good_scores,
     plt,
     run0,
-    run_average,
     save,
     titled,
 )
 from slam.render.tables import (
+    DIVERGED_SHORT,
+    ESTIMATOR,
     MISSING,
     Column,
-    anees_column,
+    Table,
+    band_note,
+    consistency_columns,
+    consistency_rule,
     num,
-    paper_range,
     slam_table,
+    terminal_text,
     value,
 )
 from slam.results import REFERENCE, CampaignResult
@@ -74,14 +87,28 @@ def _attitude_cell(name: str, e: dict[str, Any]) -> str:
 
 TABLE = slam_table(
     _AXES, Column("roll/pitch/yaw RMSE (deg)", _attitude_cell),
-    [anees_column("ANEES pos [95 % band]"),
-     anees_column("ANEES pose [95 % band]", "anees_pose6", "anees_pose6_bounds_95")],
-    Column("time/step (ms)", value("time_per_step_s", ".2f", 1e3)))
+    [*consistency_columns("anees", "pos"), *consistency_columns("anees_pose6", "pose")],
+    Column("time/epoch (ms)", value("time_per_step_s", ".2f", 1e3)))
+"""The report's results table (every column)."""
+
+COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
+                 Column("yaw RMSE\n(deg)", value("heading_rmse_deg", ".3f")),
+                 Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
+                 *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",
+                                                           "verdict")),
+                 Column("ANEES\npose", value("anees_pose6", ".2f")),
+                 Column("time/epoch\n(ms)", value("time_per_step_s", ".2f", 1e3)),
+                 DIVERGED_SHORT))
+"""The terminal table: fits 100 columns (ranges, roll / pitch and the pose verdict are in
+the report)."""
 
 
 def drone_text_table(summary: dict[str, Any]) -> str:
-    """The results table as aligned plain text (for the terminal)."""
-    return TABLE.plain(summary)
+    """The compact terminal table, failure reasons and the ANEES band (≤ 100 columns)."""
+    return terminal_text(COMPACT, summary, [
+        band_note(summary, what="position ANEES"),
+        "ANEES pose: 6-dof [position, attitude] NEES / 6; ranges, roll / pitch RMSE and "
+        "the pose verdict: report.html"])
 
 
 def drift_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
@@ -110,24 +137,13 @@ HOW_TO_READ = (
     "Attitude errors are Z-Y-X Euler angles of q_nb (forward-left-up body). ANEES pos is "
     "the 3-dof position NEES averaged over runs and epochs and divided by 3; ANEES pose "
     "the 6-dof [position, body-frame attitude] NEES / 6; a consistent filter scores about "
-    "1 and stays inside the bracketed 95 % band of the run average. NIS/dof checks the "
+    "1 and its run average stays inside the bracketed 95 % band at about 95 % of the "
+    "epochs ('in band'). " + consistency_rule() + " NIS/dof checks the "
     "landmark innovations. `imu_only` is pure strapdown mechanisation from the initial "
     "state with zero bias estimates (no landmarks): the drift the SLAM fusion must bound. "
     "`gtsam` is the batch smoother (iSAM2 + Levenberg-Marquardt, combined IMU factors and "
     "3-D bearing-range factors) on the very same measurements."
 )
-
-CAPTIONS = {
-    "errors_xyz.png": "x / y / z error vs time: run 0 with its ±2σ, the Monte Carlo "
-                      "envelope, the smoother's run 0 and the paper's ranges (dashed).",
-    "attitude.png": "Roll / pitch / yaw error vs time: run 0 with its ±2σ and the Monte "
-                    "Carlo envelope.",
-    "nees.png": "Run-averaged position NEES / 3 and pose NEES / 6 against their 95 % bands.",
-    "drift.png": "Position error norm vs time (run median and 90 % quantile): IMU only "
-                 "drifts, the SLAM filters stay bounded.",
-    "view3d.png": "Run 0 in 3-D: terrain, landmarks, true, filtered and smoothed paths.",
-}
-
 
 def _flight_note(summary: dict[str, Any]) -> str:
     f = summary.get("flight") or {}
@@ -157,74 +173,18 @@ def drone_sections(summary: dict[str, Any]) -> list[Section]:
 
 # --------------------------------------------------------------------------- figures
 
-def _error_grid(result: CampaignResult, path: Path, attr: str, sig: str, grid: ErrorGrid,
-                scale: float, paper: bool) -> None:
-    first = run0(result)
-    ref = first.scores.get(REFERENCE)
-
-    def panel(name: str, col: int) -> ErrorPanel:
-        sc0 = first.scores.get(name)
-        env = envelope(good_scores(result, name), lambda s: getattr(s, attr)[:, col] * scale)
-        shown = None
-        if sc0 is not None and not sc0.diverged:
-            shown = (getattr(sc0, attr)[:, col] * scale, getattr(sc0, sig)[:, col] * scale)
-        smoother = None
-        if ref is not None and not ref.diverged:
-            smoother = getattr(ref, attr)[:, col] * scale
-        return ErrorPanel(env, shown, "diverged on run 0" if col == 0 else "", smoother,
-                          paper_range(result.summary, name, grid.axes[col]) if paper else None)
-
-    error_grid(result, path, grid, panel, drone_colours(result))
-
-
 def plot_errors_xyz(result: CampaignResult, path: Path) -> None:
-    """``errors_xyz.png``: one row per filter, x / y / z error vs time."""
-    grid = ErrorGrid(_AXES, 13.0, 1.3, "{name}: {axis} (m)",
-                     ("error", "sigma", "envelope", "reference", "paper"),
-                     "drone position error")
-    _error_grid(result, path, "err_pos", "sig_pos", grid, 1.0, True)
+    """``errors_xyz.png``: one row per filter, x / y / z error vs time, run 0 with its ±2σ,
+    the Monte Carlo envelope, the smoother and the paper's ranges."""
+    error_grid_figure(POSITION, "drone position error (run 0 with its ±2σ; Monte Carlo "
+                      "envelope)", paper=quoted_position_range, colours=drone_colours)(
+        result, path)
 
 
 def plot_attitude(result: CampaignResult, path: Path) -> None:
-    """``attitude.png``: one row per filter, roll / pitch / yaw error (deg) vs time."""
-    grid = ErrorGrid(_ATT, 13.0, 1.3, "{name}: {axis} (deg)",
-                     ("error", "sigma", "envelope", "reference"), "attitude error")
-    _error_grid(result, path, "err_att", "sig_att", grid, 180.0 / math.pi, False)
-
-
-def plot_nees(result: CampaignResult, path: Path) -> None:
-    """``nees.png``: run-averaged position NEES / 3 and pose NEES / 6 vs time."""
-    first = run0(result)
-    colours = drone_colours(result)
-    t = first.times
-    fig, axes = plt.subplots(1, 2, figsize=(13.0, 4.6), layout="constrained", sharey=True)
-    for ax, attr, dof, key, band_key, label in (
-            (axes[0], "nees_pos", 3, "anees", "anees_bounds_95", "position NEES / 3"),
-            (axes[1], "nees_pose", 6, "anees_pose6", "anees_pose6_bounds_95",
-             "pose NEES / 6")):
-        band = None
-        for name in [*filter_names(result), REFERENCE]:
-            scores = good_scores(result, name)
-            if not scores:
-                continue
-            mean = run_average([getattr(s, attr) for s in scores], dof)
-            group = "reference" if name == REFERENCE else "filters"
-            entry = (result.summary.get(group) or {}).get(name) or {}
-            value = entry.get(key)
-            ax.plot(t, mean, color=colours[name], lw=0.8, alpha=0.85,
-                    label=name if value is None else f"{name} ({value:.2f})")
-            band = band or entry.get(band_key)
-        if band:
-            ax.axhline(band[0], color="black", ls="--", lw=1.1, label="95 % band")
-            ax.axhline(band[1], color="black", ls="--", lw=1.1)
-        ax.axhline(1.0, color="0.5", lw=0.6)
-        ax.set_yscale("log")
-        ax.set_xlabel("time (s)")
-        ax.set_title(label, fontsize=10)
-        ax.grid(True, which="both", lw=0.3, alpha=0.5)
-        ax.legend(fontsize=8, frameon=False)
-    fig.suptitle(titled(result, "consistency (run average)"), fontsize=11)
-    save(fig, path)
+    """``attitude.png``: one row per filter, roll / pitch / yaw error (deg, Z-Y-X) vs time."""
+    error_grid_figure(ATTITUDE, "attitude error, Z-Y-X Euler (run 0 with its ±2σ; Monte "
+                      "Carlo envelope)", colours=drone_colours)(result, path)
 
 
 def plot_drift(result: CampaignResult, path: Path) -> None:
@@ -297,22 +257,37 @@ def plot_view3d(result: CampaignResult, path: Path) -> None:
     save(fig, path)
 
 
-FIGURES = {"errors_xyz.png": plot_errors_xyz, "attitude.png": plot_attitude,
-           "nees.png": plot_nees, "drift.png": plot_drift, "view3d.png": plot_view3d}
+def figure_specs() -> list[FigureSpec]:
+    """The drone report's figures, in report order."""
+    own = [FigureSpec("errors_xyz.png", "x / y / z error (m) vs time, one row per filter: "
+                      "run 0 with its ±2σ, the Monte Carlo envelope (min/max over all "
+                      "runs), the smoother's run 0 and the paper's ranges (dashed) where "
+                      "quoted.", plot_errors_xyz),
+           FigureSpec("attitude.png", "Roll / pitch / yaw error (deg; Z-Y-X Euler angles of "
+                      "q_nb, forward-left-up body, pitch positive nose-down) vs time: run 0 "
+                      "with its ±2σ, the Monte Carlo envelope, the smoother's run 0.",
+                      plot_attitude)]
+    tail = [FigureSpec("drift.png", "Position error norm vs time (run median solid, 90 % "
+                       "quantile dotted): IMU-only dead reckoning drifts, the SLAM filters "
+                       "stay bounded.", plot_drift),
+            FigureSpec("view3d.png", "Run 0 in 3-D: terrain, landmarks, true, filtered and "
+                       "smoothed paths (also in scene.glb).", plot_view3d)]
+    return own + shared_specs() + tail
 
 
 def drone_figure_table() -> dict[str, tuple[Any, str]]:
     """File name -> (function drawing it, caption), for
     :class:`~slam.render.document.KindReport`."""
-    return captioned(FIGURES, CAPTIONS)
+    return figure_table(figure_specs())
 
 
 def drone_figures(result: CampaignResult, out_dir: str | Path) -> list[str]:
     """Draw every PNG figure into ``out_dir``; returns the file names."""
     out_dir = Path(out_dir)
-    for name, fn in FIGURES.items():
-        fn(result, out_dir / name)
-    return list(FIGURES)
+    specs = figure_specs()
+    for spec in specs:
+        spec.draw(result, out_dir / spec.name)
+    return [spec.name for spec in specs]
 
 
 def drone_extra_files(result: CampaignResult, out_dir: Path) -> list[str]:
@@ -325,6 +300,16 @@ def drone_extra_files(result: CampaignResult, out_dir: Path) -> list[str]:
     return written + write_tum_3d(result, out_dir)
 
 
+def drone_links(result: CampaignResult) -> list[Link]:
+    """The files :func:`drone_extra_files` writes, for the report's file list."""
+    first = result.outcomes[0] if result.outcomes else None
+    if first is None or not first.tracks:
+        return []
+    return [("scene.glb", "run 0 in 3-D (glTF binary: terrain, landmarks, paths)"),
+            *((f"{n}.tum", f"run 0's {'true' if n == 'truth' else n} trajectory (TUM: t x y "
+               "z qx qy qz qw)") for n in tum_names(result))]
+
+
 REPORT = KindReport("quaternion SINS/SLAM campaign", drone_sections, drone_figure_table,
-                    drone_text_table, drone_extra_files)
+                    drone_text_table, drone_extra_files, drone_links)
 

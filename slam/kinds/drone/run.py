@@ -38,8 +38,9 @@ from typing import Any
 
 import numpy as np
 
+from slam.failures import run_reference
 from slam.kinds.drone.filtering import IMU_ONLY, imu_only, run_drone_filter
-from slam.kinds.drone.reference import smooth_drone
+from slam.kinds.drone.reference import failed_reference, smooth_drone
 from slam.kinds.drone.scoring import score, summarize_scores, track_of
 from slam.kinds.drone.simulate import simulate_drone
 from slam.kinds.drone.truth import truth_of
@@ -78,8 +79,9 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
             for name in filters]
     ests.append(imu_only(log, fs.imu_noise_scale))
     if reference:
-        ests.append(smooth_drone(log, imu_noise_scale=fs.imu_noise_scale,
-                                 sensor_noise_scale=fs.sensor_noise_scale))
+        ref, failure = run_reference(smooth_drone, log, imu_noise_scale=fs.imu_noise_scale,
+                                     sensor_noise_scale=fs.sensor_noise_scale)
+        ests.append(ref if ref is not None else failed_reference(log, failure or ""))
     scores = {e.name: score(e, log) for e in ests}
     tracks = {e.name: track_of(e) for e in ests} if keep_tracks else {}
     return RunOutcome(run, scores, tracks,  # type: ignore[arg-type]

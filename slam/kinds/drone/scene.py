@@ -1,7 +1,8 @@
 """The 3-D outputs of a drone campaign: the glTF scene and the TUM trajectories of run 0.
 
     scene.glb      terrain mesh, landmark markers and paths as tubes (:func:`write_scene_glb`)
-    <name>.tum     run 0's trajectories (``t x y z qx qy qz qw``) and ``truth.tum``
+    <name>.tum     run 0's trajectories (``t x y z qx qy qz qw``) and ``truth.tum``; the
+                   first line is a ``#`` comment saying which run (TUM readers skip it)
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ def tube(points: np.ndarray, radius: float, sides: int = 6):
 
     pts = np.asarray(points, dtype=float)
     pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if len(pts) < 2:  # no path (an estimator that failed from the start)
+        return None
     keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
     pts = pts[keep]
     if len(pts) < 2:
@@ -105,18 +108,34 @@ def write_scene_glb(result: CampaignResult, path: str | Path) -> Path:
     return path
 
 
-def tum_text_3d(times: np.ndarray, p: np.ndarray, q: np.ndarray) -> str:
-    """TUM lines ``t x y z qx qy qz qw`` (scalar-last), non-finite rows left out."""
+def tum_text_3d(times: np.ndarray, p: np.ndarray, q: np.ndarray, header: str = "") -> str:
+    """TUM lines ``t x y z qx qy qz qw`` (scalar-last), non-finite rows left out, after
+    ``header`` as ``#`` comment lines."""
     ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(q), axis=1)
-    return tum_text(np.column_stack([times[ok], p[ok], q[ok][:, 1:], q[ok][:, :1]]))
+    body = tum_text(np.column_stack([times[ok], p[ok], q[ok][:, 1:], q[ok][:, :1]]))
+    return "".join(f"# {line}\n" for line in header.splitlines()) + body
 
 
-def write_tum_3d(result: CampaignResult, out_dir: Path) -> list[str]:
-    """``truth.tum`` and ``<name>.tum`` for every estimator tracked on run 0."""
+def tum_names(result: CampaignResult) -> list[str]:
+    """The trajectories :func:`write_tum_3d` writes: ``truth`` and run 0's estimators."""
     first = result.outcomes[0]
     if first.truth is None or first.times is None:
         return []
-    items = [("truth", first.truth[:, :3], first.truth[:, 6:10]),
-             *((n, tr.p, tr.q) for n, tr in first.tracks.items())]
-    return write_tum(out_dir, ((n, tum_text_3d(first.times, p, q)) for n, p, q in items))
+    return ["truth", *first.tracks]
+
+
+def write_tum_3d(result: CampaignResult, out_dir: Path) -> list[str]:
+    """``truth.tum`` and ``<name>.tum`` for every estimator tracked on run 0, each headed
+    by a comment naming the world, the estimator and the run."""
+    first = result.outcomes[0]
+    names = tum_names(result)
+    if not names:
+        return []
+    pq = {"truth": (first.truth[:, :3], first.truth[:, 6:10]),
+          **{n: (tr.p, tr.q) for n, tr in first.tracks.items()}}
+    runs, s = result.summary.get("runs", len(result.outcomes)), result.summary
+    return write_tum(out_dir, (
+        (n, tum_text_3d(first.times, *pq[n],
+                        f"{s.get('world', '')}: {n}, run 0 of {runs} (seed {s.get('seed', '?')}"
+                        "); ENU, q_nb; columns t x y z qx qy qz qw")) for n in names))
 

@@ -13,11 +13,9 @@ from estimators import wrap_angle
 from estimators.linalg import Array
 from nav.euler import euler_error_jacobian, q_to_euler_zyx
 from slam.kinds.drone.filtering import DroneEstimate
-from slam.kinds.drone.models import (
-    QUAT,
-)
+from slam.kinds.drone.models import QUAT, VEH_DIM
 from slam.kinds.drone.simulate import DroneLog
-from slam.scoring import anees_stats, nees_series, nis_and_timing
+from slam.scoring import anees_stats, nees_series, nis_and_timing, track_frame
 
 AXES = ("x", "y", "z")
 ATT_AXES = ("roll", "pitch", "yaw")
@@ -33,6 +31,12 @@ class DroneScores:
     err_att (E, 3) roll/pitch/yaw estimate minus truth (rad, wrapped), sig_att (E, 3);
     nees_pos (E,) 3-dof, nees_pose (E,) 6-dof (NaN at epoch 0, the prior); lm_ids (L,),
     lm_err (L,) final 3-D landmark errors (m); nis, nis_dof; time_s of ``steps`` epochs.
+
+    For the figures (single precision; NaN where the estimator gives none): sig_vel
+    (E, 3) m/s; err_bias, sig_bias (E, 6) ``[b_g (rad/s), b_a (m/s²)]`` estimate minus
+    truth and own σ; nees_att (E,) 3-dof body-frame attitude NEES; err_track, sig_track
+    (E, 2) horizontal ``[along-track, cross-track]`` error (m) in the frame of the true
+    horizontal velocity; nis_epoch (U,); map_series (filters).
     """
 
     name: str
@@ -52,6 +56,14 @@ class DroneScores:
     diverged: bool = False
     failure: str | None = None
     extra_time_s: float = 0.0
+    sig_vel: Array | None = None
+    err_bias: Array | None = None
+    sig_bias: Array | None = None
+    nees_att: Array | None = None
+    err_track: Array | None = None
+    sig_track: Array | None = None
+    nis_epoch: Array | None = None
+    map_series: Any = None
 
 
 @dataclass(frozen=True)
@@ -96,7 +108,27 @@ def score(est: DroneEstimate, log: DroneLog) -> DroneScores:
                             axis=1) if known.any() else np.zeros(0)
     return DroneScores(est.name, err_pos, sig_pos, err_vel, err_att, sig_att, nees_pos,
                        nees_pose, est.landmark_ids[known], lm_err, est.nis, est.nis_dof,
-                       est.time_s, est.steps, est.diverged, est.failure, est.extra_time_s)
+                       est.time_s, est.steps, est.diverged, est.failure, est.extra_time_s,
+                       **_figure_series(est, log, err_pos, err_rot))
+
+
+def _figure_series(est: DroneEstimate, log: DroneLog, err_pos: Array, err_rot: Array
+                   ) -> dict[str, Any]:
+    """The per-epoch arrays only the figures use (single precision)."""
+    E, C = log.n_epochs, est.pose_cov
+    var = np.full((E, VEH_DIM), np.nan) if est.vehicle_var is None else est.vehicle_var
+    with np.errstate(invalid="ignore"):
+        sd = np.sqrt(np.clip(var, 0.0, None))
+    tv = log.truth[:, 3:5]
+    along, sig_along = track_frame(err_pos[:, :2], C[:, :2, :2],
+                                   np.arctan2(tv[:, 1], tv[:, 0]))
+    nees_att = nees_series(err_rot, C[:, 3:, 3:])
+    nees_att[0] = np.nan  # epoch 0 is the prior
+    f32 = {"sig_vel": sd[:, 3:6], "err_bias": est.bias - log.truth[:, 10:16],
+           "sig_bias": sd[:, 9:15], "nees_att": nees_att, "err_track": along,
+           "sig_track": sig_along}
+    return {**{k: np.asarray(v, dtype=np.float32) for k, v in f32.items()},
+            "nis_epoch": est.nis_epoch, "map_series": est.map_series}
 
 
 def track_of(est: DroneEstimate) -> DroneTrack:
@@ -154,12 +186,14 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
         out["anees_dof"] = 3
         out["anees_bounds_95"] = pos["band"]
         out["anees_steps_inside_95"] = pos["inside"]
+        out["anees_steps_above_95"] = pos["above"]
         out["anees_distance_to_band"] = pos["distance"]
     pose = anees_stats(np.stack([s.nees_pose for s in good]), 6)
     if pose:
         out["anees_pose6"] = pose["value"]
         out["anees_pose6_bounds_95"] = pose["band"]
         out["anees_pose6_steps_inside_95"] = pose["inside"]
+        out["anees_pose6_steps_above_95"] = pose["above"]
     out.update(nis_and_timing(good))
     return out
 

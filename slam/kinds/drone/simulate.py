@@ -4,6 +4,7 @@ field of view, range and terrain occlusion) and the filters' initial state."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -11,7 +12,6 @@ from estimators import wrap_angle
 from estimators.linalg import Array
 from nav.imu_errors import ImuErrors, corrupt_imu
 from nav.quaternion import qconj, qexp, qmul, qrotate
-from nav.terrain import Terrain
 from slam.kinds.drone.models import (
     VEH_DIM,
     ImuNoise,
@@ -19,6 +19,9 @@ from slam.kinds.drone.models import (
     rae_of,
 )
 from slam.kinds.drone.truth import nav_frame, terrain_of, truth_of
+
+if TYPE_CHECKING:
+    from nav.terrain import Terrain
 
 # --------------------------------------------------------------------------- the log
 

@@ -4,17 +4,20 @@ trajectory with the landmarks on the ground (deterministic per world; cached).""
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from estimators.linalg import Array
 from nav.strapdown import earth_rate_enu, gravity_enu
-from nav.terrain import Terrain
 from slam.kinds.drone.flight import FlightPlan, Trajectory, fly
 from slam.kinds.drone.models import (
     NavFrame,
 )
+from worlds import limits
+
+if TYPE_CHECKING:  # nav.terrain imports trimesh, which swallows Ctrl-C in its imports:
+    from nav.terrain import Terrain  # it is imported only where a terrain is built
 
 # --------------------------------------------------------------------------- truth
 
@@ -24,6 +27,8 @@ def build_terrain(spec: Any, bounds: tuple[float, float, float, float]) -> Terra
 
     Flat and hills meshes cover the bounds plus ``margin_m``; a mesh file is read as is.
     """
+    from nav.terrain import Terrain
+
     m = spec.margin_m
     ext = (bounds[0] - m, bounds[1] + m, bounds[2] - m, bounds[3] + m)
     if spec.kind == "flat":
@@ -31,7 +36,32 @@ def build_terrain(spec: Any, bounds: tuple[float, float, float, float]) -> Terra
     if spec.kind == "hills":
         return Terrain.hills(ext, spec.hill_centres, spec.hill_amplitude_m, spec.hill_width_m,
                              spec.base_height_m, spec.grid_spacing_m)
-    return Terrain.from_file(spec.mesh_path)
+    return mesh_terrain(spec.mesh_path)
+
+
+def mesh_terrain(path: str) -> Terrain:
+    """The terrain of a mesh file; raises ``ValueError`` saying why a file is no usable
+    mesh (unreadable, no triangles, non-finite or too many vertices)."""
+    import trimesh
+
+    from nav.terrain import Terrain
+
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as exc:  # whatever the mesh reader raises, the user's file is bad
+        raise ValueError(f"cannot read as a mesh ({type(exc).__name__}: {exc})") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ValueError("no triangle mesh in the file")
+    vertices = np.asarray(mesh.vertices, dtype=float)
+    if len(vertices) > limits.MAX_TERRAIN_VERTICES:
+        raise ValueError(f"has {len(vertices)} vertices; at most "
+                         f"{limits.MAX_TERRAIN_VERTICES} are allowed")
+    if not np.all(np.isfinite(vertices)):
+        raise ValueError("has non-finite vertex coordinates")
+    tri = vertices[np.asarray(mesh.faces)][..., :2]  # bucket cells of the height lookup:
+    size = np.ptp(tri.reshape(-1, 2), axis=0).max()  # at most ~4e6 of them
+    cell = max(2.0 * float(np.median(np.ptp(tri, axis=1).max(axis=1))), size / 2000.0, 1e-6)
+    return Terrain(mesh, bucket_m=cell)
 
 
 def terrain_of(world) -> Terrain:
@@ -95,11 +125,17 @@ def truth_of(world) -> tuple[Trajectory, Array]:
     terrain_of(world)  # mesh problems are reported against their key
     wie = nav_frame(world).earth_rate
     try:
-        return _truth(flight_plan(world), world.terrain, tuple(world.map.bounds_m),
-                      tuple(map(tuple, world.map.landmarks.tolist())),
-                      float(world.imu.gravity_mps2), None if wie is None else tuple(wie))
+        traj, lms = _truth(flight_plan(world), world.terrain, tuple(world.map.bounds_m),
+                           tuple(map(tuple, world.map.landmarks.tolist())),
+                           float(world.imu.gravity_mps2), None if wie is None else tuple(wie))
     except ValueError as exc:
         key = "map.landmarks" if "landmark" in str(exc) else "map.waypoints"
         raise WorldError(world.source or world.name, key, str(exc)) from None
+    if traj.n_samples < world.samples_per_epoch:  # no sensor epoch: nothing to score
+        raise WorldError(world.source or world.name, "map.waypoints",
+                         f"the flight ends after {traj.n_samples} IMU samples, before the "
+                         "first sensor epoch; are the waypoints all within at_waypoint_m "
+                         "of the start?")
+    return traj, lms
 
 

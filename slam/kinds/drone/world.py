@@ -58,6 +58,7 @@ from slam.kinds.planar.world import (
     filters_section,
     start_pose,
 )
+from worlds import limits
 
 KIND = "drone-slam"
 MODES = ("joint", "local")
@@ -350,8 +351,7 @@ def _mesh_path(rel: str | None, base: Traversable | None, at: ws.Where) -> str:
     if base is None:
         raise at.error("a mesh file needs a world file to be relative to", rel)
     target = base.joinpath(rel)
-    if not target.is_file():
-        raise at.error("file not found", rel)
+    limits.check_file(target, lambda why: at.error(why, rel))
     return str(target)
 
 
@@ -363,6 +363,52 @@ def _terrain(t: dict[str, Any], data: dict[str, Any], base: Traversable | None,
              {"hill_centres": (), "hill_amplitude_m": 0.0, "hill_width_m": 1.0})
     mesh_path = _mesh_path(t["mesh_file"], base, at.child("mesh_file")) if kind == "mesh" else None
     return ws.build(SCHEMA["terrain"], t, mesh_path=mesh_path, **hills)
+
+
+def _samples(length: float, speed: float, rate: float) -> float:
+    """IMU samples to fly ``length`` metres at ``speed`` (``inf`` when it overflows)."""
+    try:
+        return length / speed * rate
+    except (OverflowError, ZeroDivisionError):
+        return math.inf
+
+
+def check_sizes(w: DroneWorld, root: ws.Where) -> None:
+    """The run's derived sizes against :mod:`worlds.limits`: IMU samples, sensor epochs,
+    the gridded terrain, the state if every landmark near the path is mapped, the filter
+    work; and an altitude smoothing of at least one IMU period (or none)."""
+    veh, imu, sen = w.vehicle, w.imu, w.sensor
+    length = limits.path_length(veh.start_xy, w.map.waypoints, veh.loops)
+    samples = _samples(length, veh.speed_mps, imu.rate_hz)
+    why = f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g}, {imu.rate_hz:g} Hz"
+    if msg := limits.over("IMU samples", samples, limits.MAX_SAMPLES, why):
+        raise root.child("vehicle.speed_mps").error(msg, veh.speed_mps)
+    epochs = samples / w.samples_per_epoch + 1
+    if msg := limits.over("sensor epochs", epochs, limits.MAX_EPOCHS):
+        raise root.child("sensor.rate_hz").error(msg, sen.rate_hz)
+    if 0.0 < veh.altitude_smoothing_s < imu.dt_s:
+        raise root.child("vehicle.altitude_smoothing_s").error(
+            f"must be 0 (no smoothing) or at least one IMU period ({imu.dt_s:g} s)",
+            veh.altitude_smoothing_s)
+    t, (x0, x1, y0, y1) = w.terrain, w.map.bounds_m
+    if t.kind == "hills":
+        span = (x1 - x0 + 2 * t.margin_m) * (y1 - y0 + 2 * t.margin_m)
+        vertices = span / t.grid_spacing_m**2
+        if msg := limits.over("terrain grid vertices", vertices, limits.MAX_TERRAIN_VERTICES):
+            raise root.child("terrain.grid_spacing_m").error(msg, t.grid_spacing_m)
+    reach = sen.max_range_m + veh.at_waypoint_m + 2.0 * veh.speed_mps / veh.max_turn_rate_rad_s
+    near = limits.near_path(w.map.landmarks, veh.start_xy, w.map.waypoints, reach)
+    state = 15 + 3 * near
+    if msg := limits.over("state dimensions", state, limits.MAX_STATE,
+                          f"{near} landmarks within sensor range of the path"):
+        raise root.child("map.landmarks").error(msg)
+    n = w.samples_per_epoch
+    work = epochs * ((state**3 if w.filters.mode == "joint" else 15**3 + 10 * state**2)
+                     + 40 * state * n)
+    if msg := limits.over("units of filter work", work, limits.MAX_WORK,
+                          f"{limits.count(epochs)} epochs, state {state}, {n} IMU samples "
+                          f"per epoch, {w.filters.mode} mode"):
+        raise root.child("filters.mode").error(msg)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -384,10 +430,12 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
                                  root.child("vehicle"))
     check_local_mode(v["filters"], root.child("filters.mode"))
     ws.check_rules(RULES, v, root)
-    return ws.build(
+    world = ws.build(
         WORLD, v, name=name, source=source,
         map=MapSpec(m["bounds_m"], m["landmarks"], m["waypoints"]),
         terrain=_terrain(v["terrain"], data, base, root.child("terrain")),
         vehicle=ws.build(SCHEMA["vehicle"], v["vehicle"], start_xy=(sx, sy),
                          start_heading_rad=heading),
     )
+    check_sizes(world, root)
+    return world

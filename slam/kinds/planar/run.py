@@ -13,6 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from slam.failures import run_reference
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.simulate import simulate_planar
@@ -50,22 +51,39 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
         tracks[ODOMETRY] = Track(ODOMETRY, odo, odo_cov, np.zeros(0, int), np.zeros((0, 2)),
                                  np.zeros((0, 2, 2)))
     if reference:
-        ref = smooth_planar(log)
-        poses = interpolate_reference(ref, log)[steps]
-        cov_all = np.full((log.n_steps + 1, 3, 3), np.nan)
-        if ref.pose_cov is not None:
-            cov_all[ref.epoch_steps] = ref.pose_cov
-        cov = cov_all[steps]
-        s = reduce_run(REFERENCE, poses, cov, truth, ref.landmark_ids, ref.landmarks, lms,
-                       np.zeros(0), np.zeros(0, int), ref.time_s)
-        scores[REFERENCE] = replace(s, steps=len(steps) - 1)
-        if keep_tracks:
-            tracks[REFERENCE] = Track(REFERENCE, poses, cov, ref.landmark_ids, ref.landmarks,
-                                      ref.landmark_cov if ref.landmark_cov is not None
-                                      else np.full((len(ref.landmark_ids), 2, 2), np.nan))
+        _reference(log, steps, truth, scores, tracks if keep_tracks else None)
     times = steps * log.dt
     return RunOutcome(run, scores, tracks, truth if keep_tracks else None,
                       lms if keep_tracks else None, times if keep_tracks else None)
+
+
+def _reference(log, steps, truth, scores: dict, tracks: dict | None) -> None:
+    """The GTSAM smoother's scores (and track); a numerical failure of the smoother
+    marks it diverged on this run with its reason (:mod:`slam.failures`)."""
+    lms = log.landmarks
+    ref, failure = run_reference(smooth_planar, log)
+    if ref is None:
+        nan = np.full((len(steps), 3), np.nan)
+        cov = np.full((len(steps), 3, 3), np.nan)
+        scores[REFERENCE] = reduce_run(REFERENCE, nan, cov, truth, np.zeros(0, int),
+                                       np.zeros((0, 2)), lms, np.zeros(0), np.zeros(0, int),
+                                       0.0, True, failure)
+        if tracks is not None:
+            tracks[REFERENCE] = Track(REFERENCE, nan, cov, np.zeros(0, int), np.zeros((0, 2)),
+                                      np.zeros((0, 2, 2)))
+        return
+    poses = interpolate_reference(ref, log)[steps]
+    cov_all = np.full((log.n_steps + 1, 3, 3), np.nan)
+    if ref.pose_cov is not None:
+        cov_all[ref.epoch_steps] = ref.pose_cov
+    cov = cov_all[steps]
+    s = reduce_run(REFERENCE, poses, cov, truth, ref.landmark_ids, ref.landmarks, lms,
+                   np.zeros(0), np.zeros(0, int), ref.time_s)
+    scores[REFERENCE] = replace(s, steps=len(steps) - 1)
+    if tracks is not None:
+        tracks[REFERENCE] = Track(REFERENCE, poses, cov, ref.landmark_ids, ref.landmarks,
+                                  ref.landmark_cov if ref.landmark_cov is not None
+                                  else np.full((len(ref.landmark_ids), 2, 2), np.nan))
 
 
 def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs: int,

@@ -3,11 +3,13 @@ summary of one estimator (NEES/ANEES from :mod:`slam.scoring`)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from estimators import wrap_angle
 from slam.results import Array, RunScores
-from slam.scoring import anees_stats, nees_series, nis_and_timing
+from slam.scoring import anees_stats, nees_series, nis_and_timing, track_frame
 
 
 def pose_errors(poses: Array, truth: Array) -> Array:
@@ -19,12 +21,15 @@ def pose_errors(poses: Array, truth: Array) -> Array:
 
 def reduce_run(name: str, poses: Array, pose_cov: Array, truth: Array, landmark_ids: Array,
                landmarks: Array, true_landmarks: Array | None, nis: Array, nis_dof: Array,
-               time_s: float, diverged: bool = False, failure: str | None = None
-               ) -> RunScores:
-    """Reduce one estimator's output on one run to its :class:`RunScores`."""
+               time_s: float, diverged: bool = False, failure: str | None = None, *,
+               nis_epoch: Array | None = None, map_series: Any = None) -> RunScores:
+    """Reduce one estimator's output on one run to its :class:`RunScores`
+    (``nis_epoch`` and ``map_series`` as :class:`~slam.mapping.problem.SlamResult`'s)."""
     err = pose_errors(poses, truth)
     with np.errstate(invalid="ignore"):
         sigma = np.sqrt(np.diagonal(pose_cov, axis1=1, axis2=2))
+    err_track, sig_track = (a.astype(np.float32) for a in
+                            track_frame(err[:, :2], pose_cov[:, :2, :2], truth[:, 2]))
     if true_landmarks is not None and len(landmark_ids):
         known = landmark_ids >= 0
         lm_err = np.linalg.norm(landmarks[known] - true_landmarks[landmark_ids[known]], axis=1)
@@ -32,7 +37,8 @@ def reduce_run(name: str, poses: Array, pose_cov: Array, truth: Array, landmark_
         lm_err = np.zeros(0)
     return RunScores(name, err, sigma, nees_series(err, pose_cov), lm_err,
                      np.asarray(nis, float), np.asarray(nis_dof, int), float(time_s),
-                     poses.shape[0] - 1, diverged, failure)
+                     poses.shape[0] - 1, diverged, failure, err_track, sig_track,
+                     None if nis_epoch is None else np.asarray(nis_epoch, int), map_series)
 
 
 def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
@@ -42,8 +48,9 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
     """
     good = [s for s in scores if not s.diverged]
     out: dict = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
+    if len(good) < len(scores):
+        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
     if not good:
-        out["failures"] = sorted({s.failure or "" for s in scores})
         return out
     err = np.stack([s.err for s in good])  # (R, K + 1, 3)
     pos2 = err[..., 0] ** 2 + err[..., 1] ** 2
@@ -62,6 +69,7 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
         out["anees"] = stats["value"]
         out["anees_bounds_95"] = stats["band"]
         out["anees_steps_inside_95"] = stats["inside"]
+        out["anees_steps_above_95"] = stats["above"]
     out.update(nis_and_timing(good))
     return out
 

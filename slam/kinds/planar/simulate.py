@@ -129,6 +129,11 @@ def simulate_planar(
 
     truth, steer = drive(world, (float(true_start[0]), float(true_start[1]), float(true_start[2])))
     k = steer.shape[0]
+    if k < sen.period_steps:  # no scan, nothing to score: not a run
+        raise WorldError(world.source or world.name, "map.waypoints",
+                         f"the vehicle reaches the last waypoint after {k} control steps, "
+                         f"before the first sensor scan (period_steps = {sen.period_steps}); "
+                         "are the waypoints all within at_waypoint_m of the start?")
     true_controls = np.column_stack([np.full(k, veh.speed_mps), steer])
     sig_u = np.array([noise.sigma_speed_mps, noise.sigma_steer_rad])
     controls = true_controls + rng.standard_normal((k, 2)) * (noise_scale * sig_u)

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 import worlds.schema as ws
 from estimators import PARTITIONED_FILTERS, wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
+from worlds import limits
 
 Array = NDArray[np.float64]
 DEG = math.pi / 180.0
@@ -226,12 +227,15 @@ def _read_map_file(rel: str, base: Traversable | None, where: ws.Where) -> dict[
     if base is None:
         raise where.error("a map file needs a world file to be relative to", rel)
     target = base.joinpath(rel)
+    limits.check_file(target, lambda why: where.error(why, rel))
     try:
         data = json.loads(target.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise where.error("file not found", rel) from None
     except (OSError, ValueError) as exc:
         raise where.error(f"cannot read as JSON: {exc}", rel) from None
+    except RecursionError:
+        raise where.error("cannot read as JSON: nested too deeply", rel) from None
     if not isinstance(data, dict) or not set(data) <= {"lm", "wp"}:
         raise where.error('must hold a JSON object with keys "lm" and/or "wp"', rel)
     out = {}
@@ -337,6 +341,43 @@ def check_local_mode(fil: dict[str, Any], at: ws.Where) -> None:
         raise at.error(rule, fil["mode"])
 
 
+def _steps(length: float, speed: float, dt: float) -> float:
+    """Control steps to drive ``length`` metres (``inf`` when it overflows)."""
+    try:
+        return length / (speed * dt) if speed * dt > 0.0 else math.inf
+    except OverflowError:
+        return math.inf
+
+
+def check_sizes(w: World, root: ws.Where) -> None:
+    """The run's derived sizes against :mod:`worlds.limits`: control steps, filter
+    epochs, the state if every landmark near the path is mapped, and the filter work."""
+    veh, sen, lms, wps = w.vehicle, w.sensor, w.map.landmarks, w.map.waypoints
+    length = limits.path_length(veh.start[:2], wps, veh.loops)
+    steps = _steps(length, veh.speed_mps, veh.dt_s)
+    why = (f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g} with "
+           f"dt_s = {veh.dt_s:g}")
+    if msg := limits.over("control steps", steps, limits.MAX_SAMPLES, why):
+        raise root.child("vehicle.speed_mps").error(msg, veh.speed_mps)
+    epochs = steps / sen.period_steps + 1
+    if msg := limits.over("filter epochs", epochs, limits.MAX_EPOCHS):
+        raise root.child("sensor.period_steps").error(msg, sen.period_steps)
+    turn = veh.wheelbase_m / math.tan(veh.max_steer_rad)
+    near = limits.near_path(lms, veh.start[:2], wps, sen.max_range_m + veh.at_waypoint_m
+                            + 2.0 * turn)
+    state = 3 + 2 * near
+    why = f"{near} landmarks within sensor range of the path"
+    if msg := limits.over("state dimensions", state, limits.MAX_STATE, why):
+        raise root.child("map.landmarks").error(msg)
+    width = 2 * sen.period_steps  # the control-noise inputs of one prediction
+    joint = w.filters.mode == "joint"
+    work = epochs * ((state + width) ** 3 if joint else (3 + width) ** 3 + 10 * state**2)
+    why = (f"{limits.count(epochs)} epochs, state {state}, {width} noise inputs per "
+           f"prediction, {w.filters.mode} mode")
+    if msg := limits.over("units of filter work", work, limits.MAX_WORK, why):
+        raise root.child("filters.mode" if joint else "sensor.period_steps").error(msg)
+
+
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None) -> World:
     """Validate a parsed ``planar-slam`` TOML document and build its :class:`World`.
 
@@ -352,8 +393,10 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     ws.check_rules((GATES,), v, root)
     sigma = (veh["initial_sigma_xy_m"], veh["initial_sigma_xy_m"],
              veh["initial_sigma_heading_deg"])
-    return ws.build(
+    world = ws.build(
         WORLD, v, name=name, source=source,
         map=MapSpec(m["bounds_m"], points["landmarks"], points["waypoints"]),
         vehicle=ws.build(SCHEMA["vehicle"], veh, start=start, initial_pose_sigma=sigma),
     )
+    check_sizes(world, root)
+    return world

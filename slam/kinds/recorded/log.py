@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.linalg import Array
+from worlds import limits
 
 #: Filters run on a recorded log by default.
 DEFAULT_FILTERS: tuple[str, ...] = ("ekf", "srckf", "srukf", "srcdkf")
@@ -35,6 +38,9 @@ class LogFormatError(ValueError):
         self.source, self.line, self.message = source, line, message
         where = source if line is None else f"{source}:{line}"
         super().__init__(f"{where}: {message}")
+
+    def __reduce__(self) -> tuple[type, tuple[str, int | None, str]]:
+        return (LogFormatError, (self.source, self.line, self.message))
 
 
 # --------------------------------------------------------------------------- the log value
@@ -100,25 +106,41 @@ _LAYOUT = {"ODOMETRY": "ODOMETRY i j dx dy dθ cxx cxy cxθ cyy cyθ cθθ",
            "LANDMARK": "LANDMARK i l x y cxx cxy cyy"}
 
 
+_INT = re.compile(r"[+-]?[0-9]+")
+_NUMBER = re.compile(r"[+-]?(([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|inf|infinity|nan)",
+                     re.IGNORECASE)
+#: Largest pose or landmark id (GTSAM keeps 56 bits for a symbol's index).
+MAX_ID = 2**56 - 1
+#: Largest magnitude of a coordinate (m), an angle (rad) or a covariance entry.
+MAX_VALUE = 1e6
+#: Allowed eigenvalues of a covariance (variances from (1 µm)² to (1 km)²).
+VARIANCE_RANGE = (1e-12, 1e6)
+#: Smallest range of a landmark point (a point at the robot has no bearing).
+MIN_RANGE_M = 1e-6
+
+
 def _int(tok: str, what: str, src: str, line: int) -> int:
-    try:
-        v = int(tok)
-    except ValueError:
-        raise LogFormatError(src, line, f"{what} {tok!r} is not an integer id") from None
+    if not _INT.fullmatch(tok):  # no "1_000", no non-ASCII digits
+        raise LogFormatError(src, line, f"{what} {tok!r} is not an integer id")
+    v = int(tok)
     if v < 0:
         raise LogFormatError(src, line, f"{what} {v} is negative")
+    if v > MAX_ID:
+        raise LogFormatError(src, line, f"{what} {tok} is too large (at most 2**56 - 1, "
+                             "GTSAM's key index)")
     return v
 
 
 def _floats(toks: list[str], what: str, src: str, line: int) -> list[float]:
     out = []
     for t in toks:
-        try:
-            v = float(t)
-        except ValueError:
-            raise LogFormatError(src, line, f"{what}: {t!r} is not a number") from None
+        if not _NUMBER.fullmatch(t):
+            raise LogFormatError(src, line, f"{what}: {t!r} is not a number")
+        v = float(t)
         if not math.isfinite(v):
             raise LogFormatError(src, line, f"{what}: {t!r} is not finite")
+        if abs(v) > MAX_VALUE:
+            raise LogFormatError(src, line, f"{what}: {t} is beyond +-{MAX_VALUE:g}")
         out.append(v)
     return out
 
@@ -136,76 +158,123 @@ def _check_cov(C: Array, src: str, line: int) -> None:
         diag = ", ".join(f"{d:g}" for d in np.diagonal(C))
         raise LogFormatError(src, line, f"covariance (diagonal {diag}) is not positive "
                              "definite") from None
+    w = np.linalg.eigvalsh(C)
+    lo, hi = VARIANCE_RANGE
+    if w[0] < lo or w[-1] > hi:
+        raise LogFormatError(src, line, f"covariance eigenvalues {w[0]:g} .. {w[-1]:g} are "
+                             f"outside [{lo:g}, {hi:g}]")
+
+
+class _Reader:
+    """The records of a log, line by line: the odometry chain and the sightings."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        self.chain: list[int] = []
+        self.where_pose: dict[int, int] = {}   # pose id -> line that introduced it
+        self.odo: list[list[float]] = []
+        self.odo_cov: list[Array] = []
+        self.lms: list[tuple[int, int, int, list[float], Array]] = []  # line, pose, id, xy, C
+
+    def error(self, line: int | None, message: str) -> LogFormatError:
+        return LogFormatError(self.source, line, message)
+
+    def record(self, no: int, tok: list[str]) -> None:
+        tag = tok[0]
+        if tag not in _COUNTS:
+            raise self.error(no, f"unknown record {tag!r} (this reader knows ODOMETRY and "
+                             "LANDMARK lines)")
+        if len(tok) != _COUNTS[tag]:
+            raise self.error(no, f"{tag} needs {_COUNTS[tag] - 1} fields ({_LAYOUT[tag]}), "
+                             f"got {len(tok) - 1}")
+        (self.odometry if tag == "ODOMETRY" else self.landmark)(no, tok)
+
+    def _fields(self, no: int, tok: list[str], second: str, what: str, dim: int
+                ) -> tuple[int, int, list[float], Array]:
+        """``(pose id, second id, values, covariance)`` of a record of ``dim`` values."""
+        src = self.source
+        i, j = _int(tok[1], "pose id", src, no), _int(tok[2], second, src, no)
+        values = _floats(tok[3:3 + dim], what, src, no)
+        C = _upper_to_cov(_floats(tok[3 + dim:], "covariance", src, no), dim)
+        _check_cov(C, src, no)
+        return i, j, values, C
+
+    def odometry(self, no: int, tok: list[str]) -> None:
+        i, j, delta, C = self._fields(no, tok, "pose id", "motion", 3)
+        if not self.chain:
+            self.chain.append(i)
+            self.where_pose[i] = no
+        elif i != self.chain[-1]:
+            raise self.error(no, f"ODOMETRY {i} {j}: the odometry must form one chain, but "
+                             f"the last pose is {self.chain[-1]}")
+        if j in self.where_pose:
+            raise self.error(no, f"ODOMETRY {i} {j}: pose {j} already appeared (line "
+                             f"{self.where_pose[j]})")
+        self.chain.append(j)
+        self.where_pose[j] = no
+        self.odo.append(delta)
+        self.odo_cov.append(C)
+
+    def landmark(self, no: int, tok: list[str]) -> None:
+        i, lid, xy, C = self._fields(no, tok, "landmark id", "landmark point", 2)
+        if not math.hypot(*xy) >= MIN_RANGE_M:
+            raise self.error(no, f"LANDMARK {i} {lid}: the point {xy} is at the robot (range "
+                             f"below {MIN_RANGE_M:g} m: no bearing)")
+        self.lms.append((no, i, lid, xy, C))
+
+    def sightings(self) -> tuple[list[int], list[int], list[list[float]], list[Array]]:
+        """Each sighting's chain index, landmark id, point and covariance."""
+        if not self.chain:
+            if not self.lms:
+                raise self.error(None, "no ODOMETRY or LANDMARK records")
+            self.chain.append(self.lms[0][1])  # landmarks only: a single pose
+            self.where_pose[self.lms[0][1]] = self.lms[0][0]
+        index = {p: k for k, p in enumerate(self.chain)}
+        obs_pose, obs_id, obs, obs_cov = [], [], [], []
+        for no, i, lid, xy, C in self.lms:
+            if i not in index:
+                raise self.error(no, f"LANDMARK {i} {lid}: pose {i} is not on the odometry "
+                                 "chain")
+            if lid in self.where_pose:
+                raise self.error(no, f"LANDMARK {i} {lid}: id {lid} is also a pose id (line "
+                                 f"{self.where_pose[lid]}); pose and landmark ids share one "
+                                 "space")
+            obs_pose.append(index[i])
+            obs_id.append(lid)
+            obs.append(xy)
+            obs_cov.append(C)
+        return obs_pose, obs_id, obs, obs_cov
+
+    def check_sizes(self) -> None:
+        """The log's derived sizes against :mod:`worlds.limits`: poses, sightings, the
+        state with every landmark, the measurements of one update."""
+        landmarks = len({lid for _, _, lid, _, _ in self.lms})
+        at_once = max(Counter(i for _, i, _, _, _ in self.lms).values(), default=0)
+        for what, n, limit, why in (
+                ("poses", len(self.chain), limits.MAX_SAMPLES, ""),
+                ("sightings", len(self.lms), limits.MAX_SAMPLES, ""),
+                ("state dimensions", 3 + 2 * landmarks, limits.MAX_STATE,
+                 f"{landmarks} landmarks"),
+                ("measurements in one update", 2 * at_once, limits.MAX_STATE,
+                 f"{at_once} sightings from one pose")):
+            if msg := limits.over(what, n, limit, why):
+                raise self.error(None, msg)
 
 
 def parse_odometry_log(text: str, source: str = "<text>") -> OdometryLog:
     """Parse GTSAM's planar ``ODOMETRY``/``LANDMARK`` text; raises :class:`LogFormatError`."""
-    chain: list[int] = []
-    where_pose: dict[int, int] = {}   # pose id -> line that introduced it
-    odo, odo_cov = [], []
-    lms: list[tuple[int, int, int, list[float], Array]] = []   # (line, pose, id, xy, cov)
+    reader = _Reader(source)
     for no, raw in enumerate(text.splitlines(), start=1):
         s = raw.split("#", 1)[0].strip()
-        if not s:
-            continue
-        tok = s.split()
-        tag = tok[0]
-        if tag not in _COUNTS:
-            raise LogFormatError(source, no, f"unknown record {tag!r} (this reader knows "
-                                 "ODOMETRY and LANDMARK lines)")
-        if len(tok) != _COUNTS[tag]:
-            raise LogFormatError(source, no, f"{tag} needs {_COUNTS[tag] - 1} fields "
-                                 f"({_LAYOUT[tag]}), got {len(tok) - 1}")
-        i = _int(tok[1], "pose id", source, no)
-        if tag == "ODOMETRY":
-            j = _int(tok[2], "pose id", source, no)
-            delta = _floats(tok[3:6], "motion", source, no)
-            C = _upper_to_cov(_floats(tok[6:12], "covariance", source, no), 3)
-            _check_cov(C, source, no)
-            if not chain:
-                chain.append(i)
-                where_pose[i] = no
-            elif i != chain[-1]:
-                raise LogFormatError(source, no, f"ODOMETRY {i} {j}: the odometry must form "
-                                     f"one chain, but the last pose is {chain[-1]}")
-            if j in where_pose:
-                raise LogFormatError(source, no, f"ODOMETRY {i} {j}: pose {j} already "
-                                     f"appeared (line {where_pose[j]})")
-            chain.append(j)
-            where_pose[j] = no
-            odo.append(delta)
-            odo_cov.append(C)
-        else:
-            lid = _int(tok[2], "landmark id", source, no)
-            xy = _floats(tok[3:5], "landmark point", source, no)
-            C = _upper_to_cov(_floats(tok[5:8], "covariance", source, no), 2)
-            _check_cov(C, source, no)
-            lms.append((no, i, lid, xy, C))
-    if not chain:
-        if lms:   # landmarks only: a single pose
-            chain.append(lms[0][1])
-            where_pose[lms[0][1]] = lms[0][0]
-        else:
-            raise LogFormatError(source, None, "no ODOMETRY or LANDMARK records")
-    index = {p: k for k, p in enumerate(chain)}
-    obs_pose, obs_id, obs, obs_cov = [], [], [], []
-    for no, i, lid, xy, C in lms:
-        if i not in index:
-            raise LogFormatError(source, no, f"LANDMARK {i} {lid}: pose {i} is not on the "
-                                 "odometry chain")
-        if lid in where_pose:
-            raise LogFormatError(source, no, f"LANDMARK {i} {lid}: id {lid} is also a pose "
-                                 f"id (line {where_pose[lid]}); pose and landmark ids share "
-                                 "one space")
-        obs_pose.append(index[i])
-        obs_id.append(lid)
-        obs.append(xy)
-        obs_cov.append(C)
+        if s:
+            reader.record(no, s.split())
+    obs_pose, obs_id, obs, obs_cov = reader.sightings()
+    reader.check_sizes()
     order = np.argsort(np.asarray(obs_pose, dtype=np.int64), kind="stable")
     return OdometryLog(
-        pose_ids=np.asarray(chain, dtype=np.int64),
-        odometry=np.asarray(odo, dtype=float).reshape(-1, 3),
-        odometry_cov=np.asarray(odo_cov, dtype=float).reshape(-1, 3, 3),
+        pose_ids=np.asarray(reader.chain, dtype=np.int64),
+        odometry=np.asarray(reader.odo, dtype=float).reshape(-1, 3),
+        odometry_cov=np.asarray(reader.odo_cov, dtype=float).reshape(-1, 3, 3),
         obs_pose=np.asarray(obs_pose, dtype=np.int64)[order],
         obs_id=np.asarray(obs_id, dtype=np.int64)[order],
         obs=np.asarray(obs, dtype=float).reshape(-1, 2)[order],
@@ -217,6 +286,7 @@ def parse_odometry_log(text: str, source: str = "<text>") -> OdometryLog:
 def read_odometry_log(path: str | os.PathLike) -> OdometryLog:
     """Read a log file; unreadable or malformed input raises :class:`LogFormatError`."""
     src = os.fspath(path)
+    limits.check_file(Path(path), lambda why: LogFormatError(src, None, why))
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:

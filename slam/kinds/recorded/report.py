@@ -1,47 +1,116 @@
-"""Report of a recorded-log run: the table of filters against the smoother."""
+"""Report of a recorded-log run (``slam run --log``): the filters against the GTSAM smoother
+on the same measurements (a log has no ground truth), figures
+(:mod:`slam.kinds.recorded.figures`) and TUM trajectories.
+
+    trajectories.png, aligned_map.png, pose_diff.png, map_state.png
+    <name>.tum   every estimator's poses (filters at their epochs, the smoother and the
+                 odometry at every pose); the time column is the pose index
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-from slam.render.document import KindReport, Section
-from slam.render.tables import plain_table
+import numpy as np
 
-LOG_COLUMNS = ("estimator", "lm dist median (m)", "lm dist max (m)", "aligned median (m)",
-               "map rotation (deg)", "final pose dist (m)", "time (s)", "iSAM2 time / time",
-               "diverged")
+from slam.kinds.planar.report import tum_text
+from slam.kinds.recorded.figures import figure_specs
+from slam.render.document import KindReport, Link, Section
+from slam.render.figures import figure_table
+from slam.render.output import write_tum
+from slam.render.tables import (
+    MISSING,
+    estimator_entries,
+    failure_notes,
+    num,
+    plain_table,
+    wrap,
+)
+from slam.results import REFERENCE, CampaignResult
+
+LOG_COLUMNS = ("estimator", "lm dist\nmed (m)", "lm dist\nmax (m)", "aligned\nmed (m)",
+               "map rot.\n(deg)", "final\npose (m)", "pose\nRMSE (m)", "time\n(s)",
+               "iSAM2 /\nfilter", "diverged")
+
+
+def _row(name: str, e: dict[str, Any]) -> list[str]:
+    diverged = e.get("diverged")
+    return [name, num(e.get("landmark_dist_to_ref_median_m"), ".3f"),
+            num(e.get("landmark_dist_to_ref_max_m"), ".3f"),
+            num(e.get("landmark_dist_to_ref_aligned_median_m"), ".3f"),
+            num(e.get("map_rotation_to_ref_deg"), "+.2f"),
+            num(e.get("final_pose_dist_to_ref_m"), ".3f"),
+            num(e.get("pose_rmse_to_ref_m"), ".3f"), num(e.get("time_s"), ".2f"),
+            num(e.get("isam2_time_over_filter_time"), ".1f"),
+            MISSING if diverged is None else ("yes" if diverged else "no")]
+
+
+def log_rows(summary: dict[str, Any]) -> list[list[str]]:
+    """One row per filter, the odometry and the smoother (distances are to the smoother)."""
+    return [_row(name, e) for name, e in estimator_entries(summary)]
+
+
+def log_head(summary: dict[str, Any]) -> str:
+    """The log's size and the smoother's objective and times, in one sentence."""
+    g = (summary.get("reference") or {}).get(REFERENCE) or {}
+    head = (f"{summary.get('log', '?')}: {summary.get('poses', '?')} poses, "
+            f"{summary.get('landmarks', '?')} landmarks, {summary.get('observations', '?')} "
+            f"observations, mode {summary.get('mode', '?')}.")
+    if "objective" in g:
+        head += (f" Smoother ½χ² {num(g.get('objective_isam2'), '.1f')} (iSAM2) -> "
+                 f"{num(g.get('objective'), '.1f')} (+LM), iSAM2 "
+                 f"{num(g.get('time_isam2_s'), '.1f')} s + LM {num(g.get('time_lm_s'), '.1f')} s.")
+    return head
 
 
 def log_table(summary: dict[str, Any]) -> str:
-    """The plain-text results table of a recorded-log run (distances are to the smoother;
-    "aligned" after the best rigid rotation + translation of the filter's map)."""
-    def num(v: Any, fmt: str) -> str:
-        return "—" if v is None else format(v, fmt)
+    """The compact terminal table of a recorded-log run (≤ 100 columns), with the log's
+    description above and the failure reasons below."""
+    notes = [*failure_notes(summary),
+             "Distances are to the smoother's estimate; aligned: after the best rigid "
+             "rotation + translation of the filter's map. Figures: report.html"]
+    return "\n".join([wrap(log_head(summary)), "", plain_table(LOG_COLUMNS, log_rows(summary)),
+                      *(wrap(n) for n in notes)])
 
-    rows = []
-    for name, e in summary["filters"].items():
-        rows.append([name, num(e.get("landmark_dist_to_ref_median_m"), ".3f"),
-                     num(e.get("landmark_dist_to_ref_max_m"), ".3f"),
-                     num(e.get("landmark_dist_to_ref_aligned_median_m"), ".3f"),
-                     num(e.get("map_rotation_to_ref_deg"), "+.2f"),
-                     num(e.get("final_pose_dist_to_ref_m"), ".3f"), num(e.get("time_s"), ".2f"),
-                     num(e.get("isam2_time_over_filter_time"), ".1f"),
-                     "yes" if e.get("diverged") else "no"])
-    o = summary["baselines"]["odometry"]
-    rows.append(["odometry", "—", "—", "—", "—", num(o["final_pose_dist_to_ref_m"], ".3f"), "—",
-                 "—", "—"])
-    g = summary["reference"]["gtsam"]
-    rows.append(["gtsam", "0", "0", "0", "0", "0", num(g["time_s"], ".2f"), "—", "—"])
-    head = (f"{summary['log']}: {summary['poses']} poses, {summary['landmarks']} landmarks, "
-            f"{summary['observations']} observations, mode {summary['mode']}; smoother "
-            f"½χ² {g['objective_isam2']:.1f} (iSAM2) -> {g['objective']:.1f} (+LM), "
-            f"iSAM2 {g['time_isam2_s']:.1f} s + LM {g['time_lm_s']:.1f} s")
-    return head + "\n\n" + plain_table(LOG_COLUMNS, rows)
+
+HOW_TO_READ = (
+    "A recorded log has no ground truth: each filter is compared with the GTSAM smoother "
+    "(iSAM2 pose by pose, then a batch Levenberg-Marquardt polish) on the very same "
+    "measurements. `lm dist` is the distance of each final landmark to the smoother's "
+    "(median, max); `aligned` the same after the best rigid rotation + translation of the "
+    "whole filter map (a map rotated as a whole is a heading error, what remains is "
+    "distortion); `map rot.` that rotation; `final pose` the distance between the final "
+    "poses; `pose RMSE` the position difference to the smoother over the filter's epochs; "
+    "`iSAM2 / filter` the smoother's iSAM2 time over the filter's. The filters' own "
+    "consistency can only be checked on their innovations (NIS, map_state.png).")
 
 
 def _sections(summary: dict[str, Any]) -> list[Section]:
-    return [Section("Results", text=log_table(summary))]
+    return [Section("Results", LOG_COLUMNS, log_rows(summary), log_head(summary)),
+            Section("How to read this", text=HOW_TO_READ)]
 
 
-REPORT = KindReport("recorded-log run", _sections, dict, log_table)
+def _tracks(result: CampaignResult) -> dict:
+    return result.outcomes[0].tracks if result.outcomes else {}
+
+
+def write_log_tum(result: CampaignResult, out_dir: Path) -> list[str]:
+    """``<name>.tum`` for every estimator of the run; the time column is the pose index."""
+    def text(name: str, tr) -> str:
+        return tum_text(np.asarray(tr.steps, dtype=float), tr.poses,
+                        f"{result.summary.get('log', '')}: {name}; time column = pose index "
+                        "along the odometry chain (the log has no time stamps); t x y z qx "
+                        "qy qz qw")
+
+    return write_tum(Path(out_dir), ((n, text(n, tr)) for n, tr in _tracks(result).items()))
+
+
+def log_links(result: CampaignResult) -> list[Link]:
+    """The TUM files :func:`write_log_tum` writes."""
+    return [(f"{n}.tum", f"{n}'s trajectory (TUM; time = pose index)") for n in _tracks(result)]
+
+
+REPORT = KindReport("recorded-log run", _sections, lambda: figure_table(figure_specs()),
+                    log_table, write_log_tum, log_links)
 """The recorded-log kind's report."""

@@ -14,8 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from slam.kinds.recorded.log import DEFAULT_FILTERS, OdometryLog, read_odometry_log
+from slam.kinds.recorded.log import (
+    DEFAULT_FILTERS,
+    LogFormatError,
+    OdometryLog,
+    read_odometry_log,
+)
 from slam.kinds.recorded.scoring import run_log
+from slam.kinds.recorded.tracks import log_tracks
 from slam.results import RunOutcome
 
 KIND = "recorded-log"
@@ -48,8 +54,12 @@ class RecordedWorld:
 
 def open_log(path: Path, filters: Sequence[str] | None = None, mode: str | None = None
              ) -> RecordedWorld:
-    """Read ``path`` (raises :class:`~slam.kinds.recorded.log.LogFormatError`)."""
+    """Read ``path`` (raises :class:`~slam.kinds.recorded.log.LogFormatError`); a log of a
+    single pose (no odometry) has nothing to filter and is refused."""
     log = read_odometry_log(path)
+    if log.n_poses < 2:
+        raise LogFormatError(str(path), None, "holds a single pose (no ODOMETRY record): "
+                             "nothing to filter or smooth")
     return RecordedWorld(Path(path).stem, str(path), log,
                          RecordedFilters(tuple(filters or DEFAULT_FILTERS), mode or MODES[0]))
 
@@ -68,12 +78,19 @@ class RecordedScores:
 
 def run_once(world: RecordedWorld, run: int, seed_seq: np.random.SeedSequence,
              filters: Sequence[str], keep_tracks: bool = False) -> RunOutcome:
-    """Run the filters and the smoother on the log (the seed is unused)."""
-    s = run_log(world.log, list(filters), mode=world.filters.mode)
+    """Run the filters and the smoother on the log (the seed is unused).  With
+    ``keep_tracks`` the outcome's tracks are every estimator's
+    :class:`~slam.mapping.problem.SlamResult` (:func:`~slam.kinds.recorded.tracks.log_tracks`)
+    and ``times`` the chain indices of the poses (a log has no clock)."""
+    kept: dict[str, Any] | None = {} if keep_tracks else None
+    s = run_log(world.log, list(filters), mode=world.filters.mode, keep=kept)
     scores = {name: RecordedScores(name, group, entry, bool(entry.get("diverged", False)),
                                    entry.get("failure"))
               for group in _GROUPS for name, entry in s[group].items()}
-    return RunOutcome(run, scores)
+    if kept is None:
+        return RunOutcome(run, scores)
+    return RunOutcome(run, scores, log_tracks(world.log, kept),  # type: ignore[arg-type]
+                      times=np.arange(world.log.n_poses, dtype=float))
 
 
 def summarize(world: RecordedWorld, outcomes: list[RunOutcome], filters: list[str],

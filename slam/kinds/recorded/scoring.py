@@ -10,6 +10,7 @@ import numpy as np
 
 from estimators import wrap_angle
 from estimators.linalg import Array
+from slam.failures import run_reference
 from slam.kinds.recorded.log import DEFAULT_FILTERS, DEFAULT_MAX_EPOCH_STEPS, OdometryLog
 from slam.kinds.recorded.models import dead_reckoning_poses, run_recorded
 from slam.kinds.recorded.reference import RecordedReference, smooth_recorded
@@ -17,12 +18,15 @@ from slam.mapping.problem import SlamResult
 
 # --------------------------------------------------------------------------- scoring
 
-def score_filter(result: SlamResult, ref: RecordedReference) -> dict[str, Any]:
-    """One filter against the smoother (keys that do not apply are left out)."""
+def score_filter(result: SlamResult, ref: RecordedReference | None) -> dict[str, Any]:
+    """One filter against the smoother (keys that do not apply are left out; only the
+    filter's own keys when the smoother failed, ``ref = None``)."""
     out: dict[str, Any] = {"time_s": result.time_s, "diverged": result.diverged,
                            "landmarks_mapped": int(len(result.landmark_ids))}
     if result.failure:
         out["failure"] = result.failure
+    if ref is None:
+        return out
     pos = {int(j): i for i, j in enumerate(ref.landmark_ids)}
     common = [(i, pos[int(j)]) for i, j in enumerate(result.landmark_ids) if int(j) in pos]
     if common:
@@ -56,28 +60,39 @@ def _rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
     """Best rotation + translation of points ``A`` onto ``B`` (least squares): the
     rotation (deg) and the distances left after it.  Separates a map that is rotated as
     a whole (a filter's heading error) from one that is distorted."""
+    deg, fitted = rigid_fit(A, B)
+    return deg, np.linalg.norm(fitted - B, axis=1)
+
+
+def rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
+    """The rotation (deg) of the best rigid fit of points ``A`` onto ``B`` and ``A`` so
+    moved."""
     ca, cb = A.mean(axis=0), B.mean(axis=0)
     H = (A - ca).T @ (B - cb)
     ang = math.atan2(H[0, 1] - H[1, 0], H[0, 0] + H[1, 1])
     c, s = math.cos(ang), math.sin(ang)
     R = np.array([[c, -s], [s, c]])
-    return math.degrees(ang), np.linalg.norm((A - ca) @ R.T + cb - B, axis=1)
+    return math.degrees(ang), (A - ca) @ R.T + cb
 
 
 def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FILTERS, *,
             mode: str = "local", max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
-            progress=None) -> dict[str, Any]:
-    """Run the filters and the smoother on ``log``; the ``summary.json`` dict."""
+            progress=None, keep: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run the filters and the smoother on ``log``; the ``summary.json`` dict.  With
+    ``keep`` (a dict) the raw outputs are left in it for the report: ``results`` (filter
+    name -> :class:`~slam.mapping.problem.SlamResult`) and ``reference`` (the smoother's
+    :class:`~slam.kinds.recorded.reference.RecordedReference` or None)."""
     results = {}
     for name in filters:
         results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps)
         if progress:
             progress(1)
-    ref = smooth_recorded(log)
+    ref, failure = run_reference(smooth_recorded, log)
+    if keep is not None:
+        keep.update(results=results, reference=ref)
     if progress:
         progress(1)
-    odo = dead_reckoning_poses(log)
-    return {
+    head = {
         "log": Path(log.source).name,
         "source": log.source,
         "mode": mode,
@@ -85,6 +100,13 @@ def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FIL
         "landmarks": int(len(log.landmark_ids)),
         "observations": int(len(log.obs_id)),
         "filters": {n: score_filter(r, ref) for n, r in results.items()},
+    }
+    if ref is None:  # the smoother failed: the filters are unscored, nothing is lost
+        return {**head, "baselines": {"odometry": {}},
+                "reference": {"gtsam": {"diverged": True, "failure": failure}}}
+    odo = dead_reckoning_poses(log)
+    return {
+        **head,
         "baselines": {"odometry": {
             "final_pose_dist_to_ref_m": float(np.hypot(*(odo[-1, :2] - ref.poses[-1, :2]))),
             "pose_rmse_to_ref_m": float(np.sqrt(np.mean(np.sum((odo[:, :2]

@@ -38,7 +38,7 @@ def _table_names(markdown: str) -> list[str]:
 def test_all_files_written(result, written):
     out, paths = written
     expected = {"summary.json", "report.md", "report.html", *FIGURES, "truth.tum",
-                *(f"{n}.tum" for n in ROWS)}
+                *(f"{n}.tum" for n in ROWS), ".slam-output"}
     assert {p.name for p in paths} == expected
     assert {p.name for p in out.iterdir()} == expected
     assert all(p.parent == out and p.stat().st_size > 0 for p in paths)
@@ -70,19 +70,26 @@ def test_results_row_values(result):
     rows = {r[0]: r for r in report.result_rows(result.summary)}
     ekf = result.summary["filters"]["ekf"]
     assert rows["ekf"][1] == f"{ekf['pos_rmse_m']:.3f}"
-    assert rows["ekf"][8] == f"{ekf['time_per_step_s'] * 1e6:.1f}"
-    assert rows["ekf"][9] == "0/2"
-    assert rows["odometry"][5] == tables.MISSING  # no landmarks
-    assert rows["gtsam"][7] == tables.MISSING  # no NIS
+    header = list(report.RESULTS.header)
+    col = {h: header.index(h) for h in header}
+    assert rows["ekf"][col["time/epoch (µs)"]] == f"{ekf['time_per_step_s'] * 1e6:.1f}"
+    assert rows["ekf"][col["diverged runs"]] == "0/2"
+    assert rows["ekf"][col["in band"]] == f"{100 * ekf['anees_steps_inside_95']:.0f} %"
+    assert rows["ekf"][col["verdict"]] == tables.verdict(ekf)
+    assert rows["odometry"][col["landmark RMSE (m)"]] == tables.MISSING  # no landmarks
+    assert rows["gtsam"][col["NIS/dof"]] == tables.MISSING  # no NIS
 
 
 def test_text_table_is_aligned(result):
+    """Two header lines, a rule, one row per estimator, then the notes; ≤ 100 columns."""
     lines = report.REPORT.text_table(result.summary).splitlines()
-    assert [ln.split()[0] for ln in lines[2:]] == ROWS
-    assert len(lines) == 2 + len(ROWS)
+    assert lines[2].startswith("---------")
+    assert [ln.split()[0] for ln in lines[3:3 + len(ROWS)]] == ROWS
+    assert lines[3 + len(ROWS)].startswith("ANEES 95 % band [")
+    assert max(len(ln) for ln in lines) <= 100
     # right-aligned numeric columns: every row's pos RMSE ends at the same column
-    header_end = lines[0].index("pos RMSE (m)") + len("pos RMSE (m)")
-    for ln in lines[2:]:
+    header_end = lines[0].index("pos RMSE") + len("pos RMSE")
+    for ln in lines[3:3 + len(ROWS)]:
         assert re.fullmatch(r"\d+\.\d{3}", ln[header_end - 5:header_end])
 
 
@@ -96,6 +103,7 @@ def test_tum_files(result, written):
     np.testing.assert_allclose(
         truth[0], [first.times[0], x, y, 0, 0, 0, math.sin(phi / 2), math.cos(phi / 2)],
         atol=1e-6)
+    assert (out / "srckf.tum").read_text().startswith("# small: srckf, run 0 of 2 (seed 0)")
     for name in ROWS:
         rows = np.loadtxt(out / f"{name}.tum")
         assert rows.shape == (k1, 8)

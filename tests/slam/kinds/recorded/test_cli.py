@@ -47,5 +47,8 @@ def test_cli_runs_a_log_and_writes_strict_summary(tmp_path):
     assert data["poses"] == 30 and "objective" in data["reference"]["gtsam"]
     assert "landmark_dist_to_ref_max_m" in data["filters"]["srckf"]
     assert "srckf" in res.output and "gtsam" in res.output
-    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [".slam-output", "report.html", "report.md", "summary.json", "aligned_map.png",
+         "map_state.png", "pose_diff.png", "trajectories.png", "ekf.tum", "srckf.tum",
+         "gtsam.tum", "odometry.tum"])
     assert Path(path).exists()

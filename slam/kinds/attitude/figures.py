@@ -1,0 +1,178 @@
+"""Figures of an ``attitude`` (star-sensor) campaign, built from
+:class:`~slam.kinds.attitude.run.AttitudeScores` (all at the star epochs).
+
+    attitude_errors.png  roll / pitch / yaw error (Z-X-Y Euler, arcsec) vs time per filter:
+                         run 0 with its ±2σ, the Monte Carlo envelope, the smoother's run 0
+    convergence.png      attitude error norm of every run, the Monte Carlo RMSE and the RMS
+                         σ on a log axis (arcsec / arcmin / deg), with the prior's error at
+                         t = 0: the convergence from the initial error (30′/60′ in §5.2)
+    rmse_sigma.png       Monte Carlo RMSE vs RMS own σ: roll / pitch / yaw, bias x / y / z
+    bias.png             run 0's gyro-bias estimates vs the truth (deg/h) with ±2σ
+    nees.png             6-dof NEES / 6 and NIS / 3 vs time in their bands; per-run
+                         histograms
+    differences.png      each filter minus SRCKF on the same runs
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H
+from slam.render.consistency import NeesSpec, consistency_figure
+from slam.render.figures import (
+    PANEL_WIDTH,
+    FigureSpec,
+    Tracked,
+    base_filter,
+    default_colours,
+    differences_figure,
+    error_grid_figure,
+    estimate_figure,
+    filters_and_reference,
+    rmse_sigma_figure,
+)
+from slam.render.plotting import (
+    good_scores,
+    plt,
+    run0,
+    save,
+    titled,
+)
+from slam.render.series import Component, column, rms, stacked
+from slam.results import REFERENCE, CampaignResult
+
+EULER = "Z-X-Y Euler angles, the paper's convention"
+ROLL_PITCH_YAW = [Component(a, "″", column("err_euler", i, 1 / ARCSEC),
+                            column("sigma_euler", i, 1 / ARCSEC)) for i, a in enumerate(AXES)]
+BIAS = [Component(a, "deg/h", column("err_bias", i, 1 / DEG_H),
+                  column("sigma_bias", i, 1 / DEG_H), "bias")
+        for i, a in enumerate(("x", "y", "z"))]
+_ANGLE_TICKS = np.array([0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 60, 120, 300, 600, 1800,
+                         3600, 7200, 18000, 36000])
+
+
+def angle_axis(ax) -> None:
+    """A log y axis in arcseconds labelled in ″, ′ and ° (60″ = 1′, 60′ = 1°)."""
+    ax.set_yscale("log")
+    lo, hi = ax.get_ylim()
+    ticks = _ANGLE_TICKS[(_ANGLE_TICKS >= lo) & (_ANGLE_TICKS <= hi)]
+    ax.yaxis.set_major_locator(FixedLocator(ticks))
+    ax.yaxis.set_major_formatter(FuncFormatter(
+        lambda v, _: f"{v:g}″" if v < 60 else f"{v / 60:g}′" if v < 3600 else f"{v / 3600:g}°"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
+def _decorate(ax, c: Component, result: CampaignResult) -> None:
+    if c.unit == "″":
+        angle_axis(ax)
+
+
+def plot_attitude_errors(result: CampaignResult, path) -> None:
+    """Run 0's roll / pitch / yaw errors (arcsec) with ±2σ, the Monte Carlo envelope and
+    the smoother's run 0, one row per filter; the y range leaves out the first 10 s."""
+    error_grid_figure(ROLL_PITCH_YAW, f"attitude error ({EULER}), run 0 with its ±2σ",
+                      groups=((0, 1, 2),), settle_s=10.0)(result, path)
+
+
+def _norm_series(result: CampaignResult, name: str):
+    err = stacked(result, name, lambda s: np.linalg.norm(s.err_body, axis=1) / ARCSEC)
+    sd = stacked(result, name, lambda s: np.linalg.norm(s.sigma_body, axis=1) / ARCSEC)
+    return err, sd
+
+
+def plot_convergence(result: CampaignResult, path) -> None:
+    """The attitude error norm (body-frame rotation angle, arcsec) of every run of the base
+    filter (grey), the Monte Carlo RMSE (solid) and RMS σ (dashed) of every estimator,
+    and the prior's error and σ at t = 0 (before the first star update), on a log axis:
+    the whole run (left) and its first seconds (right)."""
+    first, world = run0(result), result.world
+    t, col = first.times, default_colours(result)
+    names = filters_and_reference(result)
+    base = base_filter(result)
+    fs = world.filters
+    prior = math.sqrt(float(np.sum(np.square(fs.initial_error_rad)))) / ARCSEC
+    prior_sd = math.sqrt(3.0 * fs.initial_attitude_var_rad2) / ARCSEC
+    zoom = t <= t[0] + max(min(20.0, 0.1 * (t[-1] - t[0])), 2.0)
+    fig, axes = plt.subplots(1, 2, figsize=(PANEL_WIDTH, 4.6), width_ratios=(2.0, 1.0),
+                             sharey=True, layout="constrained")
+    for ax, w in zip(axes, (np.ones_like(zoom), zoom)):
+        for s in good_scores(result, base):
+            ax.plot(t[w], np.linalg.norm(s.err_body, axis=1)[w] / ARCSEC, color="0.78", lw=0.5)
+        for name in names:
+            err, sd = _norm_series(result, name)
+            ls = "--" if name == REFERENCE else "-"
+            if err is not None:
+                ax.plot(t[w], rms(err)[w], color=col[name], lw=1.3, ls=ls,
+                        marker="." if w is zoom else None, ms=3)
+            if sd is not None and np.isfinite(sd).any():
+                ax.plot(t[w], rms(sd)[w], color=col[name], lw=0.9, ls=":")
+        ax.plot([t[0]], [prior], "o", color="black", ms=7, zorder=5)
+        ax.plot([t[0]], [prior_sd], "s", mfc="none", color="black", ms=7, zorder=5)
+        ax.axhline(60.0, color="0.3", lw=0.8, ls="-.")
+        ax.set_xlabel("time (s)")
+        ax.grid(True, lw=0.3, alpha=0.5)
+    for ax in axes:
+        ax.set_ylabel("attitude error norm (arcsec; ′ = 60″)")
+    axes[0].set_title("whole run", fontsize=10)
+    axes[1].set_title("first seconds (one point per star update)", fontsize=10)
+    angle_axis(axes[0])
+    handles = [Line2D([], [], color=col[n], lw=1.3, label=f"{n}: Monte Carlo RMSE")
+               for n in names]
+    handles += [Line2D([], [], color="0.3", lw=0.9, ls=":", label="RMS of own σ"),
+                Line2D([], [], color="0.78", lw=0.8, label=f"{base}: each run"),
+                Line2D([], [], ls="none", marker="o", color="black",
+                       label=f"prior error {prior / 60:.1f}′ (before the first update)"),
+                Line2D([], [], ls="none", marker="s", mfc="none", color="black",
+                       label=f"prior σ {prior_sd / 60:.1f}′"),
+                Line2D([], [], color="0.3", lw=0.8, ls="-.", label="1′")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=4, fontsize=8,
+               frameon=False)
+    fig.suptitle(titled(result, "convergence from the initial attitude error"), fontsize=11)
+    save(fig, path)
+
+
+def _bias(i: int, axis: str) -> Tracked:
+    return Tracked(f"gyro bias {axis}", "deg/h", lambda tr: tr.bias[:, i] / DEG_H,
+                   lambda first: first.truth[:, 4 + i] / DEG_H,
+                   lambda s: s.sigma_bias[:, i] / DEG_H)
+
+
+def figure_specs() -> list[FigureSpec]:
+    """The attitude report's figures, in report order."""
+    return [
+        FigureSpec("attitude_errors.png", f"Roll, pitch and yaw error ({EULER}, arcsec) vs "
+                   "time, one row per filter: run 0 with its ±2σ band, the Monte Carlo "
+                   "envelope (min/max over all runs) and the smoother's run 0. The y range "
+                   "leaves out the first 10 s; convergence.png shows them.",
+                   plot_attitude_errors),
+        FigureSpec("convergence.png", "Attitude error norm (body-frame rotation angle) on a "
+                   "log axis: every run of the base filter (grey), the Monte Carlo RMSE "
+                   "(solid; the smoother dashed) and RMS σ (dotted) of every estimator, and "
+                   "the prior's error (dot) and σ (square) at t = 0, before the first star "
+                   "update; right: the first seconds, one point per update.",
+                   plot_convergence),
+        FigureSpec("rmse_sigma.png", f"Monte Carlo RMSE (solid) vs the RMS of each "
+                   f"estimator's own σ (dashed) per star epoch, log axes: roll, pitch, yaw "
+                   f"({EULER}, arcsec) and the gyro bias per body axis (deg/h). A consistent "
+                   "filter's two curves coincide.",
+                   rmse_sigma_figure([ROLL_PITCH_YAW, BIAS], "error vs predicted σ",
+                                     log=True, decorate=_decorate)),
+        FigureSpec("bias.png", "Run 0: gyro-bias estimates against the true bias (black; "
+                   "deg/h) per body axis, with each estimator's ±2σ (thin); the smoother "
+                   "dashed. The y range leaves out the first 5 % of the run.",
+                   estimate_figure([[_bias(i, a) for i, a in enumerate(("x", "y", "z"))]],
+                                   "gyro-bias estimates, run 0")),
+        FigureSpec("nees.png", "6-dof NEES / 6 (attitude and bias error) and the star "
+                   "updates' NIS / 3 per epoch (run averages) against their 95 % bands, with "
+                   "the fraction of epochs inside; right: the per-run time averages.",
+                   consistency_figure([NeesSpec("NEES / 6", 6, lambda s: s.nees)])),
+        FigureSpec("differences.png", f"Each filter minus the base filter (SRCKF) on the "
+                   f"same runs: RMS over runs per epoch of roll, pitch, yaw ({EULER}, arcsec) "
+                   "and gyro bias (deg/h), with the base filter's RMS σ (dotted).",
+                   differences_figure([ROLL_PITCH_YAW, BIAS],
+                                      "each filter minus {base} on the same data")),
+    ]

@@ -1,0 +1,188 @@
+r"""Scores of the ship campaign: per-run reductions and their Monte Carlo summaries.
+
+Errors are estimate minus truth of the Z-Y-X Euler angles (roll, pitch, yaw; wrapped), in
+arcminutes as the paper gives them; the estimator's own standard deviations of those
+angles come from its tangent covariance through the Euler-angle Jacobian.  Consistency is
+the 6-dof NEES of ``[δθ, δα]`` (body-frame attitude error ``Log(q̂* ⊗ q)`` and drift error
+``α - α̂``) and the 3-dof NEES of ``δθ`` alone, against the two-sided 95 % χ² band of their
+run average (Bar-Shalom, Li & Kirubarajan 2001).
+
+Time to converge: the first vector epoch after which both |roll| and |pitch| errors stay
+below the world's bound (10′) to the end of the run (NaN if they are above it at the end).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from estimators import wrap_angle
+from nav.euler import euler_error_jacobian, q_to_euler_zyx
+from nav.spaces import UnitQuaternion
+from slam.kinds.attitude.run import EstimateSeries
+from slam.kinds.ship.simulate import ShipLog
+from slam.scoring import anees_stats, nees_series
+
+Array = NDArray[np.float64]
+
+AXES = ("roll", "pitch", "yaw")
+ARCMIN = math.pi / 180.0 / 60.0
+DEG_H = math.pi / 180.0 / 3600.0
+_QUAT = UnitQuaternion()
+
+
+@dataclass(frozen=True)
+class ShipScores:
+    """One estimator on one run, reduced (radians, rad/s; at the vector epochs).
+
+    err : (M, 3) roll/pitch/yaw error; sigma : (M, 3) own std of those angles;
+    err_bias : (M, 3) ``α - α̂``; nees6, nees3 : (M,) NEES of ``[δθ, δα]`` and ``δθ``;
+    nis : (M,) per update with ``nis_dof``; time_s over ``cycles`` predict + update
+    cycles (the smoother: its solve).
+    """
+
+    name: str
+    err: Array
+    sigma: Array
+    err_bias: Array
+    nees6: Array
+    nees3: Array
+    cycles: int
+    time_s: float
+    nis: Array
+    nis_dof: int
+    extra_time_s: float = 0.0
+    diverged: bool = False
+    failure: str | None = None
+
+
+def euler_errors(qh: Array, P: Array, q_true: Array) -> tuple[Array, Array]:
+    """``(err, sigma)`` (M, 3) of the Z-Y-X angles of ``qh`` against ``q_true``; NaN rows
+    where ``qh`` is not finite."""
+    err = np.full(q_true.shape[:-1] + (3,), np.nan)
+    sig = np.full_like(err, np.nan)
+    ok = np.all(np.isfinite(qh), axis=1)
+    if ok.any():
+        err[ok] = wrap_angle(q_to_euler_zyx(qh[ok]) - q_to_euler_zyx(q_true[ok]))
+        J = euler_error_jacobian(qh[ok], q_to_euler_zyx)
+        with np.errstate(invalid="ignore"):
+            C = J @ P[ok, :3, :3] @ np.swapaxes(J, -1, -2)
+            sig[ok] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))
+    return err, sig
+
+
+def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScores:
+    """Reduce an estimator's series to :class:`ShipScores` against the log's truth."""
+    q_true, b_true = log.update_truth_q, log.update_truth_bias
+    qh, P = est.means[:, :4], est.covs
+    err, sig = euler_errors(qh, P, q_true)
+    body = np.full((len(q_true), 3), np.nan)
+    ok = np.all(np.isfinite(qh), axis=1)
+    body[ok] = _QUAT.local(qh[ok], q_true[ok])
+    e6 = np.hstack([body, b_true - est.means[:, 4:]])
+    nees6 = nees_series(e6, P)
+    nees3 = nees_series(body, P[:, :3, :3])
+    diverged, failure = est.diverged, est.failure
+    final = float(np.linalg.norm(body[-1]))
+    if not diverged and not final <= divergence_rad:
+        diverged, failure = True, (f"final attitude error {math.degrees(final):.3g} deg exceeds "
+                                   f"{math.degrees(divergence_rad):.3g} deg")
+    return ShipScores(est.name, err, sig, e6[:, 3:], nees6, nees3, est.cycles, est.time_s,
+                      est.nis, est.nis_dof, est.extra_time_s, diverged, failure)
+
+
+def settle_times(ok: Array, times: Array) -> Array:
+    """Per run (rows of ``ok`` (R, M), True where within bounds): the first epoch after
+    which ``ok`` holds to the end; NaN where it fails at the last epoch."""
+    bad = ~ok
+    any_bad = bad.any(axis=1)
+    last = bad.shape[1] - 1 - np.argmax(bad[:, ::-1], axis=1)
+    out = np.where(any_bad, times[np.minimum(last + 1, len(times) - 1)], times[0])
+    return np.where(bad[:, -1], np.nan, out)
+
+
+def _per_axis(values: Array) -> dict[str, float]:
+    return {a: float(v / ARCMIN) for a, v in zip(AXES, values)}
+
+
+def _quantiles(x: Array) -> dict[str, float | None]:
+    """Median, 95th percentile and max of the finite values of ``x`` (None if none)."""
+    x = x[np.isfinite(x)]
+    if not x.size:
+        return {"median": None, "p95": None, "max": None}
+    return {"median": float(np.median(x)), "p95": float(np.percentile(x, 95)),
+            "max": float(np.max(x))}
+
+
+def error_stats(e: Array, times: Array, steady: Array, bound: float) -> dict[str, Any]:
+    """Error statistics of stacked errors ``e`` (R, M, 3) in arcmin (module docstring)."""
+    out: dict[str, Any] = {
+        "att_rms_arcmin": _per_axis(np.sqrt(np.nanmean(e**2, axis=(0, 1)))),
+        "att_rms_steady_arcmin": _per_axis(np.sqrt(np.nanmean(e[:, steady] ** 2, axis=(0, 1)))),
+        "att_max_abs_steady_p95_arcmin": _per_axis(
+            np.percentile(np.nanmax(np.abs(e[:, steady]), axis=1), 95, axis=0)),
+    }
+    final = np.abs(e[:, -1]) / ARCMIN
+    out["final_abs_arcmin"] = {a: {"mean": float(np.mean(final[:, i])),
+                                   "rms": float(np.sqrt(np.mean(final[:, i] ** 2))),
+                                   **_quantiles(final[:, i])} for i, a in enumerate(AXES)}
+    tc = settle_times(np.all(np.abs(e[:, :, :2]) < bound, axis=2), times)
+    out["converge_roll_pitch_s"] = {**_quantiles(tc), "never": int(np.sum(~np.isfinite(tc)))}
+    tc_yaw = settle_times(np.abs(e[:, :, 2]) < bound, times)
+    out["converge_yaw_s"] = {**_quantiles(tc_yaw), "never": int(np.sum(~np.isfinite(tc_yaw)))}
+    return out
+
+
+def _consistency(good: list[ShipScores], steady: Array) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, dof in (("nees6", 6), ("nees3", 3)):
+        stats = anees_stats(np.stack([getattr(s, key) for s in good]), dof)
+        if stats:
+            suffix = "" if dof == 6 else "_att"
+            out[f"anees{suffix}"] = stats["value"]
+            out[f"anees{suffix}_bounds_95"] = stats["band"]
+            out[f"anees{suffix}_inside_95"] = stats["inside"]
+    nis = np.stack([s.nis for s in good])[:, steady]
+    if np.isfinite(nis).any() and good[0].nis_dof:
+        out["nis_mean_steady"] = float(np.nanmean(nis) / good[0].nis_dof)
+    return out
+
+
+def summarize_scores(scores: list[ShipScores], times: Array, steady_from: float,
+                     bound: float) -> dict[str, Any]:
+    """Monte Carlo summary of one estimator (a ``summary.json`` entry); diverged runs are
+    counted, with their reasons, and left out of every statistic."""
+    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
+    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
+    if bad:
+        out["failures"] = sorted({s.failure or "" for s in bad})
+    if not good:
+        return out
+    steady = times >= steady_from
+    out.update(error_stats(np.stack([s.err for s in good]), times, steady, bound))
+    eb = np.stack([s.err_bias for s in good])
+    out["bias_rmse_deg_h"] = float(np.sqrt(np.nanmean(eb**2)) / DEG_H)
+    out["bias_final_rmse_deg_h"] = float(np.sqrt(np.nanmean(eb[:, -1] ** 2)) / DEG_H)
+    out.update(_consistency(good, steady))
+    cycles = sum(s.cycles for s in good)
+    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
+    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    return out
+
+
+def paired_mse(a: list[ShipScores], b: list[ShipScores], steady: Array) -> dict[str, Any]:
+    r"""Per-run difference of the steady-state attitude mean squared error (arcmin²),
+    ``a`` minus ``b`` over the runs neither diverged on: mean, its standard error and the
+    runs where ``a`` is better (a paired comparison on the same data)."""
+    pairs = [(x, y) for x, y in zip(a, b) if not (x.diverged or y.diverged)]
+    if len(pairs) < 2:
+        return {}
+    d = np.array([np.nanmean((x.err[steady] ** 2).sum(axis=1))
+                  - np.nanmean((y.err[steady] ** 2).sum(axis=1)) for x, y in pairs])
+    d = d / ARCMIN**2
+    return {"mean": float(d.mean()), "se": float(d.std(ddof=1) / math.sqrt(len(d))),
+            "a_better_runs": int(np.sum(d < 0)), "runs": len(d)}

@@ -1,0 +1,1 @@
+"""Tests of the fuzz harness in ``benchmarks/fuzz``."""

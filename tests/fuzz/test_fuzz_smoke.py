@@ -1,0 +1,215 @@
+"""Smoke tests of the fuzz harness (``benchmarks/fuzz``).
+
+A fixed-seed sample of 11 cheap cases runs through the real ``slam`` CLI (about 17 s on two
+idle cores); the classifier, the TOML writer and the mutators are also tested on their own.
+``SLAM_FUZZ_CMD`` (e.g. ``"env PYTHONPATH=/some/checkout .venv/bin/slam"``) picks the CLI
+to run; by default it is the ``slam`` next to the interpreter.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import tomllib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from benchmarks.fuzz import tomlio
+from benchmarks.fuzz.core import Base, Case
+from benchmarks.fuzz.harness import (
+    CLASSES,
+    GOOD,
+    Limits,
+    Outcome,
+    classify,
+    default_slam,
+    run_case,
+)
+from benchmarks.fuzz.mutate import (
+    LOG_FAMILIES,
+    WORLD_FAMILIES,
+    load_bases,
+    load_log_lines,
+    log_cases,
+    render,
+    world_cases,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+TEXT_FAMILIES = {"binary", "syntax", "nesting"}  # may be broken TOML on purpose
+SAMPLE_FAMILIES = ["delete-key", "wrong-type", "nonfinite", "syntax"]
+LIMITS = Limits(seconds=25.0)
+
+
+@pytest.fixture(scope="module")
+def bases() -> list[Base]:
+    return load_bases(ROOT / "worlds")
+
+
+@pytest.fixture(scope="module")
+def log_lines() -> list[str]:
+    return load_log_lines(n=120)
+
+
+def _slam() -> list[str]:
+    given_cmd = os.environ.get("SLAM_FUZZ_CMD")
+    return shlex.split(given_cmd) if given_cmd else default_slam()
+
+
+def _by_name(bases: list[Base], name: str) -> Base:
+    return next(b for b in bases if b.name == name)
+
+
+def _regressions(bailey: Base, log_lines: list[str]) -> list[Case]:
+    """Three hostile inputs from the issue that are quick to run."""
+    deep = "deep = " + "[" * 1000 + "0" + "]" * 1000 + "\n" + tomlio.dumps(bailey.doc)
+    doc = json.loads(json.dumps(bailey.doc))
+    doc["sensor"]["sigma_range_m"] = 1e-308
+    lines = list(log_lines)
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("LANDMARK"))
+    t = lines[k].split()
+    lines[k] = " ".join([*t[:3], "0", "0", *t[5:]])
+    return [render(bailey, "nesting", "arrays 1000 deep at the top level", text=deep),
+            render(bailey, "extreme", "sensor.sigma_range_m = 1e-308", doc),
+            Case("log", "log-geometry", f"line {k + 1}: landmark at range 0", "victoria",
+                 ("\n".join(lines) + "\n").encode())]
+
+
+@pytest.fixture(scope="module")
+def sample(bases: list[Base], log_lines: list[str], tmp_path_factory: pytest.TempPathFactory
+           ) -> dict[str, list[Outcome]]:
+    """Run the fixed sample once, two at a time: a known-good world, a world with an
+    unknown key, four mutated cheap worlds, two mutated logs and three issue regressions."""
+    cheap = [_by_name(bases, "bailey"), _by_name(bases, "star-sensor")]
+    good = render(cheap[0], "control", "unmodified")
+    doc = json.loads(json.dumps(cheap[0].doc))
+    doc["vehicle"]["speed_mpss"] = 3.0
+    unknown = render(cheap[0], "control", "unknown key vehicle.speed_mpss", doc)
+    mutated = world_cases(4, 0, cheap, SAMPLE_FAMILIES)
+    logs = log_cases(2, 0, log_lines, ["log-structure", "log-number"])
+    cases = [good, unknown, *mutated, *logs, *_regressions(cheap[0], log_lines)]
+    work = tmp_path_factory.mktemp("fuzz")
+    slam = _slam()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = list(pool.map(lambda ic: run_case(ic[1], work, slam, LIMITS,
+                                                    folder_name=str(ic[0])), enumerate(cases)))
+    return {"control": results[:2], "sample": results[2:8], "regressions": results[8:]}
+
+
+def _why(o: Outcome) -> str:
+    return f"{o.case.family}/{o.case.base} {o.case.name}: {o.klass} ({o.detail})"
+
+
+# --------------------------------------------------------------------------- through the CLI
+
+def test_known_good_world_is_ok(sample: dict[str, list[Outcome]]) -> None:
+    good = sample["control"][0]
+    assert good.klass == "ok", _why(good) + "\n" + good.stderr_tail
+
+
+def test_unknown_key_is_rejected(sample: dict[str, list[Outcome]]) -> None:
+    bad = sample["control"][1]
+    assert bad.klass == "rejected", _why(bad) + "\n" + bad.stderr_tail
+    assert "speed_mpss" in bad.detail
+
+
+def test_sample_is_classified(sample: dict[str, list[Outcome]]) -> None:
+    outcomes = sample["sample"] + sample["regressions"]
+    assert len(outcomes) == 9
+    assert all(o.klass in CLASSES for o in outcomes)
+    assert all(o.seconds <= LIMITS.seconds + 5 for o in outcomes)
+
+
+def test_sample_has_no_traceback(sample: dict[str, list[Outcome]]) -> None:
+    bad = [o for o in sample["sample"] if o.klass not in GOOD]
+    assert not bad, "\n".join(map(_why, bad))
+
+
+def test_issue_regressions_have_no_traceback(sample: dict[str, list[Outcome]]) -> None:
+    bad = [o for o in sample["regressions"] if o.klass not in GOOD]
+    assert not bad, "\n".join(map(_why, bad))
+
+
+# --------------------------------------------------------------------------- classifier
+
+def test_classifier_classes(tmp_path: Path) -> None:
+    missing = tmp_path / "none.json"
+    named = ["case.toml"]
+    one = "error: case.toml: [vehicle] x: unknown key\n"
+    assert classify(None, "", [], missing, named)[0] == "hang"
+    assert classify(1, "Traceback (most recent call last):\nValueError: x\n", [], missing,
+                    named) == ("traceback", "ValueError: x")
+    assert classify(1, "MemoryError\n", [], missing, named)[0] == "memory"
+    assert classify(-11, "", [], missing, named)[0] == "crash"
+    assert classify(2, one, [], missing, named)[0] == "rejected"
+    assert classify(2, one, ["out/summary.json"], missing, named)[0] == "wrote-on-error"
+    assert classify(2, one + "more\n", [], missing, named)[0] == "multi-line-error"
+    assert classify(2, "error: something\n", [], missing, named)[0] == "unnamed-error"
+    assert classify(0, "", [], missing, named)[0] == "degenerate-success"
+
+
+def _summary(tmp_path: Path, entry: dict) -> Path:
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps({"filters": {"srckf": entry}}))
+    return path
+
+
+def test_classifier_degenerate_scores(tmp_path: Path) -> None:
+    real = {"runs_scored": 1, "pos_rmse_m": 0.6, "pos_err_range_m": {"x": [-1.0, 0.4]}}
+    zero = {"runs_scored": 1, "pos_rmse_m": 0.0, "pos_err_range_m": {"x": [0.0, 0.0]}}
+    unscored = {"runs_scored": 0, "pos_rmse_m": 0.6}
+    assert classify(0, "", [], _summary(tmp_path, real), [])[0] == "ok"
+    for entry in (zero, unscored, {**real, "anees": math.nan}):
+        assert classify(0, "", [], _summary(tmp_path, entry), [])[0] == "degenerate-success"
+
+
+# --------------------------------------------------------------------------- mutators
+
+_scalars = (st.integers(-(2**63), 2**63 - 1) | st.booleans() | st.text(max_size=8)
+            | st.floats(allow_nan=False))
+_keys = st.text(min_size=1, max_size=6)
+_docs = st.dictionaries(_keys, st.recursive(
+    _scalars, lambda inner: st.lists(inner, max_size=3)
+    | st.dictionaries(_keys, inner, min_size=1, max_size=3), max_leaves=8), max_size=5)
+
+
+@given(_docs)
+@settings(max_examples=60, deadline=None, database=None)
+def test_toml_writer_round_trips(doc: dict) -> None:
+    assert tomllib.loads(tomlio.dumps(doc)) == doc
+
+
+@given(family=st.sampled_from(sorted(WORLD_FAMILIES)), seed=st.integers(0, 2**32))
+@settings(max_examples=25, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+def test_world_mutators(bases: list[Base], family: str, seed: int) -> None:
+    first = world_cases(3, seed, bases, [family])
+    assert first == world_cases(3, seed, bases, [family])  # deterministic for a seed
+    for case in first:
+        assert case.family == family and case.name and case.data is not None
+        base = _by_name(bases, case.base)
+        plain = render(base, "", "")
+        assert (case.data, case.extra) != (plain.data, plain.extra)  # something changed
+        if family not in TEXT_FAMILIES:
+            doc = tomllib.loads(case.data.decode("utf-8"))  # parseable ...
+            mutated = tomlio.dumps(doc) != tomlio.dumps(base.doc)  # (3 != 3.0 here)
+            assert mutated or case.extra != plain.extra  # ... and mutated
+
+
+@given(family=st.sampled_from(sorted(LOG_FAMILIES)), seed=st.integers(0, 2**32))
+@settings(max_examples=40, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_log_mutators(log_lines: list[str], family: str, seed: int) -> None:
+    first = log_cases(3, seed, log_lines, [family])
+    assert first == log_cases(3, seed, log_lines, [family])
+    base = ("\n".join(log_lines) + "\n").encode()
+    for case in first:
+        assert isinstance(case, Case) and case.family == family and case.name
+        assert (case.target is not None) != (case.data is not None)
+        assert case.data != base

@@ -1,0 +1,71 @@
+"""A small ship campaign end to end through ``slam run`` (the kind registered by
+``tests.slam.kinds.ship.worlds``): summary, report sections, the terminal table and the
+figures; and the convergence-time and paired-comparison helpers."""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from click.testing import CliRunner, Result
+
+import slam.cli
+from slam.kinds.ship.report import REPORT, ship_tables
+from slam.kinds.ship.scoring import settle_times
+from tests.slam.kinds.ship import worlds  # noqa: F401  (registers the kind)
+
+FILTERS = {"hommukf", "ukf", "cdkf", "srckf", "ekf"}
+
+
+def test_settle_times() -> None:
+    t = np.arange(5.0)
+    ok = np.array([[False, True, False, True, True], [True] * 5, [True, True, True, True, False]])
+    got = settle_times(ok, t)
+    assert got[0] == 3.0 and got[1] == 0.0 and math.isnan(got[2])
+
+
+def _short_world(tmp_path: Path) -> Path:
+    text = (files("worlds") / "ship.toml").read_text(encoding="utf-8")
+    for old, new in (("duration_s = 300.0", "duration_s = 8.0"), ("runs = 50", "runs = 2"),
+                     ("steady_state_from_s = 100.0", "steady_state_from_s = 4.0")):
+        assert text.count(old) == 1
+        text = text.replace(old, new)
+    path = tmp_path / "short-ship.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _run(tmp_path: Path, *options: str) -> tuple[Result, Path, dict[str, Any]]:
+    out = tmp_path / "out"
+    res = CliRunner().invoke(slam.cli.main, ["run", str(_short_world(tmp_path)), "--workers",
+                                             "1", "--out", str(out), *options])
+    assert res.exit_code == 0, res.output
+    return res, out, json.loads((out / "summary.json").read_text(encoding="utf-8"))
+
+
+def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
+    res, out, s = _run(tmp_path, "--no-plots")
+    assert s["kind"] == "ship" and s["runs"] == 2 and set(s["filters"]) == FILTERS
+    assert set(s["variants"]) == {"ukf:additive", "ukf:manifold"}
+    for name, e in [*s["filters"].items(), *s["variants"].items(),
+                    ("gtsam", s["reference"]["gtsam"])]:
+        assert e["diverged_runs"] == 0, (name, e.get("failures"))
+        assert set(e["att_rms_arcmin"]) == {"roll", "pitch", "yaw"}
+        assert 0.0 < e["anees"] and len(e["anees_bounds_95"]) == 2
+    assert {c["a"] for c in s["comparisons"]} >= {"hommukf", "ukf:additive", "ukf"}
+    report = (out / "report.md").read_text(encoding="utf-8")
+    for title in ("## Results", "## Paper vs ours", "## Effects", "## Paired comparisons"):
+        assert title in report
+    assert "ukf:additive" in res.output and "RMS yaw" in res.output
+    assert "| (a) | ukf:additive |" in ship_tables(s)
+
+
+def test_the_report_figures_are_drawn(tmp_path) -> None:
+    _, out, s = _run(tmp_path, "--filters", "hommukf,ekf")
+    assert set(s["filters"]) == {"hommukf", "ekf"} and not s["variants"]
+    for f in REPORT.figures():
+        assert (out / f).stat().st_size > 10_000, f
