@@ -9,15 +9,15 @@
 ``srukf``    square-root unscented Kalman filter (QR + Cholesky downdate)
 ``srcdkf``   square-root central-difference Kalman filter
 ``svdckf``   cubature Kalman filter with an SVD-factored covariance
-``hommukf``  high-order moment-matching UKF (seed 002), dense covariance
+``hommukf``  high-order moment-matching UKF ([Ding 2017]), dense covariance
 ===========  =========================================================
 
 Robust filters (:data:`ROBUST_FILTER_NAMES`; they do *not* reduce to the Kalman filter
 on a linear model for finite ``gamma``, so they are kept out of :data:`FILTER_NAMES`):
 
 ===========  =========================================================
-``srchinf``  square-root cubature H∞ Kalman filter (seed 000), bound ``gamma``
-``uthinf``   unscented H∞ filter (seed 001), dense covariance, bound ``gamma``
+``srchinf``  square-root cubature H∞ Kalman filter ([Spin SR-CH∞KF]), bound ``gamma``
+``uthinf``   unscented H∞ filter ([Wu-Wang 2014]), dense covariance, bound ``gamma``
 ===========  =========================================================
 """
 
@@ -46,7 +46,7 @@ def make_filter(name: str, *, alpha: float = 1.0, beta: float = 2.0, kappa: floa
 
     ``alpha``, ``beta``, ``kappa`` tune the unscented rule (defaults give positive
     weights for any dimension; also used by ``uthinf``); ``h`` is the central-difference
-    step.  ``gamma`` is the H∞ bound of ``srchinf``/``uthinf`` (default 5, seed 001's
+    step.  ``gamma`` is the H∞ bound of ``srchinf``/``uthinf`` (default 5, [Wu-Wang 2014]'s
     value; ``inf`` gives the Kalman twin) and ``on_failure`` what they do when the
     Riccati existence condition fails (``"raise"`` or ``"kalman"``, see
     :mod:`estimators.hinf`).  Other filters ignore both.

@@ -1,10 +1,10 @@
-r"""Sigma-point H∞ filters: the square-root cubature H∞ filter (SR-CH∞KF, seed 000)
-and the unscented H∞ filter (UT-H∞, seed 001), with the Riccati existence check.
+r"""Sigma-point H∞ filters: the square-root cubature H∞ filter (SR-CH∞KF, [Spin SR-CH∞KF])
+and the unscented H∞ filter (UT-H∞, [Wu-Wang 2014]), with the Riccati existence check.
 
 Both papers pair a sigma-point time update with the *a-posteriori* (central) H∞
 measurement update of a linear system with estimated quantity :math:`z = L x`, here
 :math:`L = I`.  The papers print the update in the augmented ("Krein") arrangement
-(seed 000 eq. 27-32, seed 001 eq. 11-12; both garbled in the text); what is implemented
+([Spin SR-CH∞KF] eq. 27-32, [Wu-Wang 2014] eq. 11-12; both garbled in the text); what is implemented
 is the following reconstruction.
 
 Statistical linearisation
@@ -22,13 +22,13 @@ so that :math:`P_{xz} = P\tilde H^\top` and :math:`P_{zz} = \tilde H P \tilde H^
 \tilde R` hold exactly.  For a linear :math:`h` (and any rule exact to second order)
 :math:`\tilde H = H` and :math:`\tilde R = R`; for a nonlinear :math:`h`,
 :math:`\tilde R` also carries the linearisation error (Sibley et al.'s approximation,
-seed 000 eq. 28-29, made exact).  Using :math:`\tilde R` rather than :math:`R` is what
+[Spin SR-CH∞KF] eq. 28-29, made exact).  Using :math:`\tilde R` rather than :math:`R` is what
 makes the filter reduce *exactly* to its Kalman twin as :math:`\gamma \to \infty` on a
 nonlinear model.
 
 Update
 ------
-Gain and mean are the Kalman ones (seed 000 eq. 26/32 and seed 001's last step use the
+Gain and mean are the Kalman ones ([Spin SR-CH∞KF] eq. 26/32 and [Wu-Wang 2014]'s last step use the
 predicted :math:`P` in the gain):
 
 .. math::
@@ -58,7 +58,7 @@ augmented form
 
 (Simon's a-priori form uses :math:`K = P^+ \tilde H^\top \tilde R^{-1}` instead; it is
 not what the two papers print and is not implemented.)  The papers' "error limiting
-parameter" :math:`\kappa` (seed 000) is :math:`\gamma` here; seed 000 eq. 25 prints
+parameter" :math:`\kappa` ([Spin SR-CH∞KF]) is :math:`\gamma` here; [Spin SR-CH∞KF] eq. 25 prints
 :math:`\kappa^2` where :math:`\kappa^{-2}` belongs (its text says a larger :math:`\kappa`
 brings the filter closer to the Kalman filter, which only the inverse satisfies).
 
@@ -86,7 +86,7 @@ measurement of a 2-state, a direction observable only as the geometry changes) t
 loss compounds over many updates and the bound grows until the condition fails, so
 :math:`\gamma` has to be chosen for the update rate, not only for the size of
 :math:`P` (``benchmarks/robustness.py --factor 1``: at 10 Hz over 875 updates on the
-seed-000 problem, :math:`\gamma = 1` rad diverged, with the condition failing in 9 % of
+[Spin SR-CH∞KF] problem, :math:`\gamma = 1` rad diverged, with the condition failing in 9 % of
 the updates, although :math:`\lambda_{\max}(P) \approx 0.003\ \mathrm{rad}^2`;
 :math:`\gamma \ge 1.5` was stable).
 A finite :math:`\gamma` also enlarges the gain: it weights measurements *more* than the

@@ -1,4 +1,4 @@
-r"""High-order moment-matching (HoMM) sigma points, seed 002 §2-3 (eq. 18-23).
+r"""High-order moment-matching (HoMM) sigma points, [Ding 2017] §2-3 (eq. 18-23).
 
 Reconstruction
 --------------
@@ -30,7 +30,7 @@ matched by
     b_j = \tfrac12\big(-s_j + \sqrt{4k_j - 3s_j^2}\big),
 
 which are both positive iff :math:`k_j > s_j^2` (true for every non-degenerate
-distribution: :math:`k \ge s^2 + 1`).  This is seed 002 eq. (20)/(22) with the paper's
+distribution: :math:`k \ge s^2 + 1`).  This is [Ding 2017] eq. (20)/(22) with the paper's
 :math:`\alpha\sqrt N = a`, :math:`\beta\sqrt N = b` and :math:`\phi_1 = s/\sqrt N`,
 :math:`\phi_2 = k/N` (so :math:`N` cancels; the paper's weights
 :math:`1/(\alpha(\alpha+\beta)N)` are the ones above).  The paper averages the moments
@@ -141,7 +141,7 @@ class HighOrderMoment:
 
 def augmented_rule(n: int, m: int, skewness: float | tuple[float, ...] = 0.0,
                    kurtosis: float | tuple[float, ...] = 3.0) -> HighOrderMoment:
-    r"""The noise-augmented set of seed 002 eq. (22)-(23) as a rule for dimension ``n + m``.
+    r"""The noise-augmented set of [Ding 2017] eq. (22)-(23) as a rule for dimension ``n + m``.
 
     State axes (the first ``n``): moment-matched with ``skewness``/``kurtosis``.  Noise
     axes (the last ``m``): :math:`\pm\sqrt N e_j` with weight :math:`1/(2N)`,

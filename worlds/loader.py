@@ -17,7 +17,7 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
-from worlds import limits
+import worlds.limits as limits
 from worlds.schema import WorldError
 
 _LINE = re.compile(r"at line (\d+)")

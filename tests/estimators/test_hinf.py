@@ -19,7 +19,7 @@ from estimators.sigma import SigmaPointFilter
 from tests.linear_model import B, F, H, Q, R, linear_models, simulate_linear
 
 # --------------------------------------------------------------------------- nonlinear model
-# seed 000: state [pitch α, yaw β] driven by gyro increments, axial magnetometer reading
+# [Spin SR-CH∞KF]: state [pitch α, yaw β] driven by gyro increments, axial magnetometer reading
 INC, DEC = np.deg2rad(-48.17), np.deg2rad(2.32)
 
 

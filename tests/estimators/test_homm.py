@@ -1,4 +1,4 @@
-"""Seed 002: the high-order moment-matching (HoMM) sigma points and the HoMM-UKF.
+"""[Ding 2017]: the high-order moment-matching (HoMM) sigma points and the HoMM-UKF.
 
 * the HoMM rule reproduces mean, covariance, third and fourth moments (Gaussian and
   given skewness/kurtosis), is Julier's κ = 3 − n set for a Gaussian, and its filter

@@ -1,4 +1,4 @@
-"""Seed 002: the quaternion pseudo-observation (:mod:`nav.pseudo_observation`).
+"""[Ding 2017]: the quaternion pseudo-observation (:mod:`nav.pseudo_observation`).
 
 * it vanishes on the true attitude and its noise-separation covariance matches Monte
   Carlo.

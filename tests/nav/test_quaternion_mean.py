@@ -1,4 +1,4 @@
-"""Seed 002: the eigenvector quaternion mean (:mod:`nav.quaternion_mean`).
+"""[Ding 2017]: the eigenvector quaternion mean (:mod:`nav.quaternion_mean`).
 
 * exact on symmetric sets, sign-blind, and agrees with the iterative chart mean on
   tight clouds; as a filter space with pseudo-observations, the HoMM-UKF converges.

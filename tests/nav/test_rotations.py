@@ -312,7 +312,7 @@ def test_euler_broadcasts():
 @FAST
 @given(unit_quats)
 def test_paper_dcm_pattern_is_transpose_of_ours(q):
-    """Seed 004 eq. (5): its C_n^b in [q1 q2 q3 q4] equals qto_dcm(q).T elementwise."""
+    """[Wang SRCKF-SLAM] eq. (5): its C_n^b in [q1 q2 q3 q4] equals qto_dcm(q).T elementwise."""
     q1, q2, q3, q4 = np.moveaxis(q_to_paper(q), -1, 0)
     C_n_b = np.stack([
         np.stack([q1**2 + q2**2 - q3**2 - q4**2, 2 * (q2 * q3 + q1 * q4),

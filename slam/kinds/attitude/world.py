@@ -1,6 +1,6 @@
 """The ``attitude`` world: satellite attitude from a strapdown gyro and a star sensor.
 
-Seed 004 §5.1-5.2 (SCENARIOS.md S3).  Units are spelled in every key and converted to SI
+[Wang SRCKF-SLAM] §5.1-5.2 (SCENARIOS.md S3).  Units are spelled in every key and converted to SI
 radians on load; the dataclasses name their SI units.  File layout::
 
     kind = "attitude"

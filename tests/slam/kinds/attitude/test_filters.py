@@ -1,4 +1,4 @@
-"""Star-sensor attitude filters (seed 004 §5.1-5.2, :mod:`slam.kinds.attitude.run`): the
+"""Star-sensor attitude filters ([Wang SRCKF-SLAM] §5.1-5.2, :mod:`slam.kinds.attitude.run`): the
 quaternion filters against an independent rotation-matrix implementation, failures
 reported as divergence, the vector mode.
 """
