@@ -1,0 +1,284 @@
+"""Tables and sections of a ``spinning`` campaign's report (from ``summary.json`` alone).
+
+* Results: pitch / yaw mean absolute error and RMSE, the implied roll's RMSE outside and
+  inside the geomagnetic blind area, consistency, H∞ existence failures, timing.
+* Paper vs ours: [Spin SR-CH∞KF] publishes no error numbers, only Table 2's flight and
+  its figures' rankings; both are set next to ours.
+* The H∞ existence check per γ, and the noise-mismatch sweep (one table per noise shape).
+* How to read this: what differs from the paper and why.
+
+The figures are :mod:`slam.kinds.spinning.figures`; :data:`REPORT` is the kind's
+:class:`~slam.render.document.KindReport`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from slam.kinds.spinning.figures import figures
+from slam.render.document import KindReport, Section
+from slam.render.tables import (
+    DIVERGED,
+    MISSING,
+    Column,
+    Table,
+    consistency_columns,
+    consistency_rule,
+    num,
+    value,
+)
+from slam.render.tables import plain_table as plain
+from slam.results import REFERENCE
+
+
+def _fallback_cell(name: str, e: dict[str, Any]) -> str:
+    if "hinf_fallbacks" not in e:
+        return MISSING
+    return f"{e['hinf_fallbacks']}/{e['hinf_updates']}"
+
+
+def _time_cell(name: str, e: dict[str, Any]) -> str:
+    if name == REFERENCE:
+        return f"{num(e.get('time_s'), '.2f')} s/run"
+    return num(e.get("time_per_cycle_s"), ".3f", 1e3)
+
+
+RESULTS = Table((
+    Column("estimator", lambda name, e: "gtsam smoother" if name == REFERENCE else name),
+    Column("pitch mean abs (°)", value("pitch_mean_abs_deg", ".4f")),
+    Column("pitch RMSE (°)", value("pitch_rmse_deg", ".4f")),
+    Column("yaw mean abs (°)", value("yaw_mean_abs_deg", ".3f")),
+    Column("yaw RMSE (°)", value("yaw_rmse_deg", ".3f")),
+    Column("roll RMSE outside (°)", value("roll_rmse_outside_deg", ".3f")),
+    Column("roll RMSE blind (°)", value("roll_rmse_blind_deg", ".2f")),
+    *consistency_columns(), Column("NIS", value("nis_mean", ".2f")),
+    Column("H∞ fallbacks", _fallback_cell),
+    Column("time/cycle (ms)", _time_cell), DIVERGED))
+"""The results table: a row per filter and the smoother."""
+
+
+def result_rows(summary: dict[str, Any]) -> list[list[str]]:
+    """:data:`RESULTS`' rows, then the roll floor (eq. 7-8 with the true pitch and yaw)."""
+    rows = RESULTS.rows(summary)
+    floor = summary.get("roll_floor") or {}
+    if floor:
+        row = [MISSING] * len(RESULTS.columns)
+        row[0] = "roll floor (true pitch, yaw)"
+        row[5] = num(floor.get("roll_rmse_outside_deg"), ".3f")
+        row[6] = num(floor.get("roll_rmse_blind_deg"), ".2f")
+        rows.append(row)
+    return rows
+
+
+def _results_text(s: dict[str, Any]) -> str:
+    tn = s.get("truth_noise") or {}
+    b = s.get("blind_area") or {}
+    return (f"{s.get('runs', '?')} runs, every epoch of the flight (Δt = "
+            f"{num(s.get('sample_interval_s'), 'g')} s). True noise: magnetometer "
+            f"{num(tn.get('magnetometer_factor'), 'g')}×, gyro {num(tn.get('gyro_factor'), 'g')}× "
+            f"what the filters assume, {tn.get('distribution', '?')}. Roll is eq. 7-8 on the "
+            "measured radial field with each estimator's pitch and yaw, wrapped to ±180°; "
+            f"'blind' is the geomagnetic blind area (body axis within "
+            f"{num(b.get('threshold_deg'), 'g')}° of the field line, "
+            f"{num(b.get('from_s'), '.1f')}-{num(b.get('to_s'), '.1f')} s; a detector on the "
+            f"measured radial field agrees on {num(b.get('detector_agreement'), '.1%')} of the "
+            f"epochs: misses {num(b.get('detector_missed'), '.1%')} of the blind ones, flags "
+            f"{num(b.get('detector_false'), '.1%')} of the others). The roll floor row "
+            "uses the true pitch and yaw: what the magnetometer's noise alone leaves. "
+            "ANEES is the run-averaged 2-dof pitch/yaw NEES over 2 against the 95 % band of "
+            f"one epoch; 'H∞ fallbacks' are updates whose existence condition failed (γ = "
+            f"{num(s.get('gamma_rad'), 'g')} rad). Cycle times are wall-clock inside the "
+            "campaign's workers. " + consistency_rule())
+
+
+def _best_worst(s: dict[str, Any], key: str) -> tuple[str, str]:
+    vals = {n: e.get(key) for n, e in (s.get("filters") or {}).items()
+            if isinstance(e.get(key), float)}
+    if not vals:
+        return MISSING, MISSING
+    lo, hi = min(vals.values()), max(vals.values())
+    best = ", ".join(n for n, v in vals.items() if v <= lo * (1 + 1e-3))
+    worst = ", ".join(n for n, v in vals.items() if v >= hi * (1 - 1e-3))
+    return f"{best} ({lo:.4g}°)", f"{worst} ({hi:.4g}°)"
+
+
+def paper_rows(s: dict[str, Any]) -> list[list[str]]:
+    """The paper's Table 2 and its figures' statements next to ours."""
+    f = s.get("flight") or {}
+    p = s.get("paper") or {}
+    b = s.get("blind_area") or {}
+    bp, wp = _best_worst(s, "pitch_rmse_deg")
+    by, wy = _best_worst(s, "yaw_rmse_deg")
+    br, _ = _best_worst(s, "roll_rmse_blind_deg")
+    return [
+        ["flight time (s)", num(f.get("target_flight_time_s"), "g"),
+         num(f.get("flight_time_s"), ".2f")],
+        ["range (m)", num(f.get("target_range_m"), ".1f"), num(f.get("range_m"), ".1f")],
+        ["apex (m)", num(f.get("target_apex_m"), "g"), num(f.get("apex_m"), ".1f")],
+        ["most accurate pitch (RMSE)", p.get("best_pitch", MISSING), bp],
+        ["least accurate pitch", p.get("worst_pitch", MISSING), wp],
+        ["most accurate yaw", p.get("best_yaw", MISSING), by],
+        ["least accurate yaw", p.get("worst_yaw", MISSING), wy],
+        ["smallest roll error in the blind area", p.get("best_roll_blind", MISSING), br],
+        ["blind area", p.get("blind_area", MISSING),
+         f"{num(b.get('from_s'), '.1f')}-{num(b.get('to_s'), '.1f')} s (axis within "
+         f"{num(b.get('threshold_deg'), 'g')}° of the field line; closest "
+         f"{num(b.get('closest_angle_deg'), '.2f')}° at {num(b.get('closest_at_s'), '.1f')} s)"],
+    ]
+
+
+def _gamma_text(g: Any) -> str:
+    return "∞" if g is None or (isinstance(g, float) and math.isinf(g)) else format(g, "g")
+
+
+def existence_rows(s: dict[str, Any]) -> list[list[str]]:
+    """H∞ existence failures per filter and γ over the sweep's logs, all factors summed per
+    distribution (fallbacks / updates), then the campaign's own H∞ runs."""
+    sweep = s.get("sweep") or {}
+    rows = []
+    for name, entry in (s.get("filters") or {}).items():
+        if "hinf_fallbacks" in entry:
+            rows.append([f"{name} γ={_gamma_text(s.get('gamma_rad'))} (campaign)",
+                         "campaign noise", _fallback_cell(name, entry),
+                         str(entry.get("hinf_runs_with_fallbacks", MISSING)),
+                         entry.get("hinf_on_failure", MISSING)])
+    for dist in sweep.get("distributions", []):
+        for row in sweep.get("rows", []):
+            cells = [c for c in sweep.get("cells", [])
+                     if c["row"] == row and c["distribution"] == dist
+                     and c.get("gamma_rad") is not None]
+            if not cells:
+                continue
+            falls = sum(c["fallbacks"] for c in cells)
+            per_factor = ", ".join(f"{c['factor']:g}×: {c['fallbacks']}" for c in cells)
+            rows.append([row, f"sweep, {dist}", f"{falls}/{sum(c['updates'] for c in cells)}",
+                         per_factor, "Kalman update for that step"])
+    return rows
+
+
+EXISTENCE_HEADER = ("filter", "noise", "failed / updates", "by factor (or runs hit)",
+                    "what the filter then did")
+
+
+def sweep_sections(s: dict[str, Any]) -> list[Section]:
+    """One table per noise shape: rows the sweep's filters (H∞ per γ), columns the factors;
+    cells ``pitch / yaw RMSE (°)`` and the existence failures."""
+    sweep = s.get("sweep") or {}
+    factors = sweep.get("factors", [])
+    out = []
+    for dist in sweep.get("distributions", []):
+        header = ["filter"] + [f"{f:g}× pitch / yaw (°)" for f in factors]
+        rows = []
+        for row in sweep.get("rows", []):
+            cells = {c["factor"]: c for c in sweep.get("cells", [])
+                     if c["row"] == row and c["distribution"] == dist}
+            line = [row]
+            for f in factors:
+                c = cells.get(f)
+                if c is None or not c["logs"]:
+                    line.append(MISSING)
+                    continue
+                extra = f" [{c['fallbacks']} fb]" if c.get("fallbacks") else ""
+                extra += f" ({c['diverged']} div)" if c.get("diverged") else ""
+                line.append(f"{num(c['rmse_pitch_deg'], '.3f')} / "
+                            f"{num(c['rmse_yaw_deg'], '.3f')}{extra}")
+            rows.append(line)
+        logs = {c["logs"] for c in sweep.get("cells", []) if c["distribution"] == dist}
+        text = (f"True noise = factor × assumed on {sweep.get('scale', '?')} "
+                f"({dist}); {'/'.join(map(str, sorted(logs)))} log(s) per factor, every filter "
+                "on the same logs and prior draws. [n fb] = updates whose H∞ existence "
+                "condition failed (then the Kalman update was used); (n div) = diverged logs, "
+                "left out of the RMSE. γ=∞ rows are the Kalman twins' (srckf, ukf).")
+        out.append(Section(f"Noise-mismatch sweep ({dist})", header, rows, text))
+    return out
+
+
+PAPER_TEXT = ("[Spin SR-CH∞KF] publishes no error numbers: its Fig. 5-8 are described in "
+              "words, so the paper's column holds its statements, ours the measured RMSE "
+              "(ties within 0.1 % are listed together). Table 2's flight is met by the drag "
+              "calibration.")
+
+HOW_TO_READ = (
+    "Yaw is nearly unobservable from the axial field: the reading depends on it only through "
+    "cos(D − β), stationary at β = D = 2.32° while the flight heads north (β ≈ 0) with a small "
+    "crosswind drift, so the yaw error mostly keeps its launch prior plus the gyro's random "
+    "walk until the geometry changes late in the flight; the smoother, using the late "
+    "readings for the whole flight, does much better. Pitch is observed well except near the "
+    "blind area, where ∂B_x/∂α → 0 as the axis lines up with the field. The roll is eq. 7-8 "
+    "with each estimator's pitch and yaw: outside the blind area its error is dominated by "
+    "the yaw error (compare the roll floor), inside it the radial field is a few percent of "
+    "B and the same pitch/yaw errors are amplified several times (roll floor: the "
+    "magnetometer's noise alone). UKF, CKF, SRCKF and SVD-CKF "
+    "agree to ~1e-3° (differences.png): with sigma points a degree apart the model is close "
+    "to linear. "
+    "SR-CH∞KF here keeps the Kalman gain and mean of each update and bounds the covariance "
+    "by (P_KF⁻¹ − γ⁻²I)⁻¹, i.e. it adds about P_KF²/γ² per update. That grows with the "
+    "square of P, so it acts on the poorly observed yaw (σ ≈ 1°, P ≈ 3e-4 rad²) and reaches "
+    "the pitch only through their correlation; it is ~1e-4 of P at γ = 2 rad "
+    "(benchmarks/spinning_hinf.py measures the σ increase). The inflated covariance raises "
+    "the next gains, so the filter weights the magnetometer more, the opposite of what an "
+    "underestimated measurement noise or outliers call for; at the smallest γ the existence "
+    "condition fails on many updates (table above) and the estimate degrades.")
+
+
+def _finite(v: Any) -> bool:
+    return isinstance(v, float) and math.isfinite(v)
+
+
+def prior_note(s: dict[str, Any]) -> str:
+    """What the campaign's prior draws do to the ANEES (the yaw keeps its prior error)."""
+    z = s.get("prior_draws_mean_sq") or {}
+    if not _finite(z.get("yaw")):
+        return ""
+    return (f"This campaign's initial estimates were drawn with squared errors of "
+            f"{z['pitch']:.2f} (pitch) and {z['yaw']:.2f} (yaw) times their prior variance on "
+            "average (1 expected); since the yaw keeps its initial error until late in the "
+            "flight, the filters' NEES carries that draw over most of the flight (nees.png).")
+
+
+def hinf_verdict(s: dict[str, Any]) -> str:
+    """A sentence from the sweep: SR-CH∞KF's best finite γ against SRCKF, per factor."""
+    sweep = s.get("sweep") or {}
+    parts = []
+    for dist in sweep.get("distributions", []):
+        cells = [c for c in sweep.get("cells", []) if c["distribution"] == dist and c["logs"]]
+        for f in sweep.get("factors", []):
+            base = next((c for c in cells if c["factor"] == f and c["row"] == "srckf"), None)
+            hinf = [c for c in cells if c["factor"] == f and c["filter"] == "srchinf"
+                    and c["gamma_rad"] is not None and _finite(c["rmse_pitch_deg"])]
+            if base is None or not hinf or not _finite(base["rmse_pitch_deg"]):
+                continue
+            best = min(hinf, key=lambda c: c["rmse_pitch_deg"] + c["rmse_yaw_deg"])
+            dp = 100 * (best["rmse_pitch_deg"] / base["rmse_pitch_deg"] - 1)
+            dy = 100 * (best["rmse_yaw_deg"] / base["rmse_yaw_deg"] - 1)
+            parts.append(f"{dist} {f:g}×: best {best['row']} {dp:+.1f} % pitch, "
+                         f"{dy:+.1f} % yaw")
+    if not parts:
+        return ""
+    return ("SR-CH∞KF's best finite γ against SRCKF (RMSE change; negative = H∞ better): "
+            + "; ".join(parts) + ".")
+
+
+def sections(s: dict[str, Any]) -> list[Section]:
+    """The report's sections (module docstring)."""
+    out = [Section("Results", RESULTS.header, result_rows(s), _results_text(s)),
+           Section("Paper vs ours", ("", "paper", "ours"), paper_rows(s), PAPER_TEXT),
+           Section("H∞ existence check", EXISTENCE_HEADER, existence_rows(s),
+                   "Eq. 25/33's condition λmax(P_KF) < γ² (estimators.hinf) per update.")]
+    out += sweep_sections(s)
+    out.append(Section("How to read this", text=" ".join(filter(None, [
+        HOW_TO_READ, prior_note(s), hinf_verdict(s)]))))
+    return out
+
+
+def text_table(s: dict[str, Any]) -> str:
+    """The results table as aligned plain text (for the terminal)."""
+    header = ["estimator", "pitch RMSE", "yaw RMSE", "roll out", "roll blind", "ANEES [band]",
+              "verdict", "H∞ fb", "ms/cycle", "diverged"]
+    rows = [[r[i] for i in (0, 2, 4, 5, 6, 7, 9, 11, 12, 13)] for r in result_rows(s)]
+    return plain(header, rows) + "\n(errors: RMSE in degrees over all epochs and runs)"
+
+
+REPORT = KindReport("spinning-projectile attitude campaign", sections, figures, text_table)
+"""The ``spinning`` kind's report."""

@@ -1,0 +1,251 @@
+"""The ``spinning`` world: a high-spin projectile's pitch and yaw from a gyro and a
+three-axis magnetometer ([Spin SR-CH∞KF], Tables 1-2).
+
+Units are spelled in every key and converted to SI radians on load.  File layout::
+
+    kind = "spinning"
+    description = "one line"
+    runs = 50                       # Monte Carlo runs
+    seed = 0                        # optional
+    sample_interval_s = 0.1         # gyro and magnetometer (Table 2)
+    [launch]       speed_mps, pitch_deg, yaw_deg, roll_deg (Table 2)
+    [flight]       scale_height_m, crosswind_mps, drag_k_per_m (optional: calibrated),
+                   target_flight_time_s, target_range_m, target_apex_m (Table 2)
+    [spin]         rate_rev_s, decay_time_s
+    [field]        intensity_nt, inclination_deg, declination_deg (Table 1)
+    [gyro]         rate_noise_deg_s_sqrt_hz (pitch/yaw rate noise density the filters
+                   assume), roll_range_deg_s (the roll channel saturates above it)
+    [magnetometer] noise_nt (per axis, per sample, what the filters assume)
+    [truth_noise]  magnetometer_factor, gyro_factor (true noise = factor x assumed),
+                   distribution ("gaussian" | "student-t" | "contaminated"),
+                   student_t_dof, contamination_fraction, contamination_scale
+    [filters]      names, gamma_rad (the paper's kappa), on_failure ("kalman" | "raise"),
+                   initial_sigma_deg = [pitch, yaw]
+    [scoring]      blind_area_deg, divergence_deg
+    [sweep]        factors, gammas_rad, distributions, runs_per_cell, filters,
+                   scale ("both" | "magnetometer" | "gyro": the sensors the factor scales)
+    [paper]        free-form: the paper's statements, passed through to summary.json
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
+from typing import Any
+
+import worlds.schema as ws
+from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
+from slam.kinds.spinning.noise import DISTRIBUTIONS, NoiseShape
+from slam.kinds.spinning.truth import Field, FlightSpec
+
+KIND = "spinning"
+DEG = math.pi / 180.0
+NAMES = FILTER_NAMES + ROBUST_FILTER_NAMES
+SCALES = ("both", "magnetometer", "gyro")
+
+
+class Gammas(ws.Field):
+    """A non-empty list of H∞ bounds γ (rad): positive numbers, ``inf`` allowed (Kalman)."""
+
+    def __init__(self, default: Any = ws.REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: ws.Where) -> tuple[float, ...]:
+        if not isinstance(value, list) or not value:
+            raise where.error("must be a non-empty list of positive numbers (inf allowed)",
+                              value)
+        for i, v in enumerate(value):
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and v > 0.0):
+                raise where.item(i).error("must be a positive number or inf", v)
+        return tuple(float(v) for v in value)
+
+
+class Factors(ws.Field):
+    """A non-empty list of noise factors in [1, 100]."""
+
+    def __init__(self, default: Any = ws.REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: ws.Where) -> tuple[float, ...]:
+        if not isinstance(value, list) or not value:
+            raise where.error("must be a non-empty list of numbers in [1, 100]", value)
+        for i, v in enumerate(value):
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and 1.0 <= v <= 100.0):
+                raise where.item(i).error("must be a number in [1, 100]", v)
+        return tuple(float(v) for v in value)
+
+
+@dataclass(frozen=True)
+class SpinSpec:
+    """Roll spin: rate (rev/s) at launch and its e-folding decay time (s)."""
+
+    rate_rev_s: float
+    decay_time_s: float
+
+
+@dataclass(frozen=True)
+class GyroSpec:
+    """Pitch/yaw rate noise density the filters assume (rad/s/√Hz; per sample
+    σ = density/√dt) and the roll channel's range (rad/s)."""
+
+    rate_noise_rad_s_sqrt_hz: float
+    roll_range_rad_s: float
+
+
+@dataclass(frozen=True)
+class MagnetometerSpec:
+    """Per-axis, per-sample noise the filters assume (nT)."""
+
+    noise_nt: float
+
+
+@dataclass(frozen=True)
+class SpinningFilterSpec:
+    """Filters to run; γ and the failure policy of ``srchinf``/``uthinf``; the prior σ."""
+
+    names: tuple[str, ...]
+    gamma_rad: float
+    on_failure: str
+    initial_sigma_rad: tuple[float, float]
+
+    @property
+    def mode(self) -> str:
+        """Always ``"joint"`` (one small state; read by the CLI for every kind)."""
+        return "joint"
+
+
+@dataclass(frozen=True)
+class ScoringSpec:
+    """``blind_area_rad``: the body axis closer than this to the field line is the blind
+    area; a run whose final pitch or yaw error exceeds ``divergence_rad`` is diverged."""
+
+    blind_area_rad: float
+    divergence_rad: float
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """The noise-mismatch sweep: true noise ``factor`` x assumed on the sensors ``scale``
+    names, per distribution, for every filter (H∞ filters at every γ), ``runs_per_cell``
+    logs per (distribution, factor)."""
+
+    factors: tuple[float, ...]
+    gammas_rad: tuple[float, ...]
+    distributions: tuple[str, ...]
+    runs_per_cell: int
+    filters: tuple[str, ...]
+    scale: str = "both"
+
+    @property
+    def tasks(self) -> int:
+        """Sweep logs in all: one per (replicate, distribution, factor)."""
+        return self.runs_per_cell * len(self.distributions) * len(self.factors)
+
+
+@dataclass(frozen=True)
+class SpinningWorld:
+    """A validated ``spinning`` world (SI units, radians).  ``paper`` is free-form."""
+
+    name: str
+    kind: str
+    description: str
+    runs: int
+    sample_interval_s: float
+    flight: FlightSpec
+    roll0_rad: float
+    spin: SpinSpec
+    field: Field
+    gyro: GyroSpec
+    magnetometer: MagnetometerSpec
+    truth_noise: NoiseShape
+    filters: SpinningFilterSpec
+    scoring: ScoringSpec
+    sweep: SweepSpec
+    seed: int = 0
+    paper: dict[str, Any] = field(default_factory=dict)
+    source: str = ""
+
+
+_LAUNCH = {
+    "speed_mps": ws.Number(ws.positive(3000.0)),
+    "pitch_deg": ws.Number(ws.Interval(1.0, 89.0), scale=DEG),
+    "yaw_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG),
+    "roll_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG),
+}
+_FLIGHT = {
+    "scale_height_m": ws.Number(ws.positive(1e9), default=10_400.0),
+    "crosswind_mps": ws.Number(ws.Interval(-50.0, 50.0), default=0.0),
+    "drag_k_per_m": ws.Number(ws.Interval(0.0, 1e-2), default=None),
+    "target_flight_time_s": ws.Number(ws.positive(1000.0)),
+    "target_range_m": ws.Number(ws.positive(1e6)),
+    "target_apex_m": ws.Number(ws.positive(1e6)),
+}
+SCHEMA: dict[str, Any] = {
+    **ws.header(KIND),
+    "sample_interval_s": ws.Number(ws.Interval(0.001, 1.0)),
+    "launch": ws.Section(_LAUNCH, attr=None),
+    "flight": ws.Section(_FLIGHT, attr=None),
+    "spin": ws.Section({
+        "rate_rev_s": ws.Number(ws.Interval(0.0, 500.0)),
+        "decay_time_s": ws.Number(ws.positive(1e9)),
+    }, into=SpinSpec),
+    "field": ws.Section({
+        "intensity_nt": ws.Number(ws.positive(1e6)),
+        "inclination_deg": ws.Number(ws.Interval(-90.0, 90.0), scale=DEG).to("inclination_rad"),
+        "declination_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
+        .to("declination_rad"),
+    }, into=Field),
+    "gyro": ws.Section({
+        "rate_noise_deg_s_sqrt_hz": ws.Number(ws.positive(100.0), scale=DEG)
+        .to("rate_noise_rad_s_sqrt_hz"),
+        "roll_range_deg_s": ws.Number(ws.positive(1e6), scale=DEG).to("roll_range_rad_s"),
+    }, into=GyroSpec),
+    "magnetometer": ws.Section({"noise_nt": ws.Number(ws.positive(1e5))},
+                               into=MagnetometerSpec),
+    "truth_noise": ws.Section({
+        "magnetometer_factor": ws.Number(ws.Interval(0.0, 100.0), default=1.0),
+        "gyro_factor": ws.Number(ws.Interval(0.0, 100.0), default=1.0),
+        "distribution": ws.String(choices=DISTRIBUTIONS, default="gaussian"),
+        "student_t_dof": ws.Number(ws.Interval(2.0, 1000.0, lo_open=True), default=3.0),
+        "contamination_fraction": ws.Number(ws.Interval(0.0, 0.5), default=0.05),
+        "contamination_scale": ws.Number(ws.Interval(1.0, 1000.0), default=10.0),
+    }, into=NoiseShape),
+    "filters": ws.Section({
+        "names": ws.StringList(NAMES),
+        "gamma_rad": ws.Number(ws.positive(1e9), default=5.0),
+        "on_failure": ws.String(choices=("kalman", "raise"), default="kalman"),
+        "initial_sigma_deg": ws.Vector(2, ws.Interval(0.0, 30.0, lo_open=True), scale=DEG)
+        .to("initial_sigma_rad"),
+    }, into=SpinningFilterSpec),
+    "scoring": ws.Section({
+        "blind_area_deg": ws.Number(ws.Interval(0.0, 90.0, lo_open=True), scale=DEG)
+        .to("blind_area_rad"),
+        "divergence_deg": ws.Number(ws.positive(180.0), default=20.0, scale=DEG)
+        .to("divergence_rad"),
+    }, into=ScoringSpec),
+    "sweep": ws.Section({
+        "factors": Factors(default=[1.0, 2.0, 5.0, 10.0]),
+        "gammas_rad": Gammas(default=[2.0, 5.0, 10.0, math.inf]),
+        "distributions": ws.StringList(DISTRIBUTIONS, default=["gaussian"]),
+        "runs_per_cell": ws.Integer(ws.Interval(0, 1000), default=5),
+        "filters": ws.StringList(NAMES, default=list(NAMES)),
+        "scale": ws.String(choices=SCALES, default="both"),
+    }, required=False, into=SweepSpec),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=SpinningWorld)
+
+
+def _flight(launch: dict[str, Any], flight: dict[str, Any]) -> FlightSpec:
+    return FlightSpec(speed_mps=launch["speed_mps"], pitch_rad=launch["pitch_deg"],
+                      yaw_rad=launch["yaw_deg"], **flight)
+
+
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
+          ) -> SpinningWorld:
+    """Validate a parsed ``spinning`` TOML document and build its :class:`SpinningWorld`."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    return ws.build(WORLD, v, name=name, source=source,
+                    flight=_flight(v["launch"], v["flight"]), roll0_rad=v["launch"]["roll_deg"])

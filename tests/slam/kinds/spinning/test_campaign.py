@@ -1,0 +1,102 @@
+"""A small ``spinning`` campaign end to end through ``slam run`` (the kind registered as a
+plug-in), the sweep's bookkeeping, and a bad world exiting 2."""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib.resources import files
+from pathlib import Path
+
+from click.testing import CliRunner
+
+import slam.cli
+from slam.kinds.spinning import sweep as sw
+from tests.slam.kinds.spinning.helpers import tiny_world
+
+FILTERS = {"srckf", "srchinf", "ekf"}  # few rows: the figures are most of the test's time
+
+
+def _tiny_file(tmp_path: Path, **replace: str) -> Path:
+    text = (files("worlds") / "spinning.toml").read_text(encoding="utf-8")
+    for old, new in {"sample_interval_s = 0.1": "sample_interval_s = 1.0",
+                     "factors = [1.0, 2.0, 5.0, 10.0]": "factors = [1.0, 5.0]",
+                     "gammas_rad = [0.2, 0.5, 2.0, 5.0, 10.0, inf]": "gammas_rad = [2.0, inf]",
+                     "runs_per_cell = 4": "runs_per_cell = 1",
+                     'filters = ["ukf", "ckf", "srckf", "svdckf", "ekf", "srchinf", "uthinf"]':
+                     'filters = ["srckf", "srchinf"]',
+                     'names = ["ukf", "ckf", "srckf", "svdckf", "srchinf", "uthinf", "ekf"]':
+                     'names = ["srckf", "srchinf", "ekf"]', **replace}.items():
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / "tiny-spin.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_small_campaign_through_the_cli(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = CliRunner().invoke(slam.cli.main, ["run", str(_tiny_file(tmp_path)), "--runs", "2",
+                                             "--workers", "1", "--no-plots", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "srchinf" in res.output and "gtsam smoother" in res.output
+    s = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert s["kind"] == "spinning" and s["runs"] == 2 and set(s["filters"]) == FILTERS
+    for name, e in [*s["filters"].items(), ("gtsam", s["reference"]["gtsam"])]:
+        assert e["diverged_runs"] == 0, (name, e.get("failures"))
+        assert 0.0 < e["pitch_rmse_deg"] < 1.0 and 0.0 < e["yaw_rmse_deg"] < 5.0, name
+        assert e["roll_rmse_outside_deg"] < e["roll_rmse_blind_deg"], name
+        lo, hi = e["anees_bounds_95"]
+        assert lo < 1.0 < hi and 0.0 < e["anees"] < 10.0 and 0.0 <= e["anees_steps_above_95"]
+    assert s["filters"]["srchinf"]["hinf_updates"] == 2 * 88
+    f = s["flight"]
+    assert math.isclose(f["flight_time_s"], 87.5, rel_tol=0.02) and f["drag_calibrated"]
+    assert 60.0 < s["blind_area"]["from_s"] < s["blind_area"]["to_s"] < 85.0
+    assert s["blind_area"]["detector_agreement"] > 0.9
+    assert all(0.0 < v < 10.0 for v in s["prior_draws_mean_sq"].values())
+    sweep = s["sweep"]
+    assert sweep["logs_done"] == 2 and sweep["rows"] == ["srckf", "srchinf γ=2", "srchinf γ=∞"]
+    cells = {(c["factor"], c["row"]): c for c in sweep["cells"]}
+    for factor in (1.0, 5.0):
+        assert cells[factor, "srchinf γ=∞"]["rmse_pitch_deg"] == cells[factor, "srckf"][
+            "rmse_pitch_deg"]
+    assert cells[5.0, "srckf"]["rmse_pitch_deg"] > cells[1.0, "srckf"]["rmse_pitch_deg"]
+    report = (out / "report.md").read_text(encoding="utf-8")
+    for title in ("## Results", "## Paper vs ours", "## H∞ existence check",
+                  "## Noise-mismatch sweep (gaussian)", "## How to read this"):
+        assert title in report, title
+
+
+def test_the_kinds_own_figures(tmp_path: Path) -> None:
+    """The figures drawn here (the shared ones are the renderer's): roll with the blind
+    area, the sweep, the flight."""
+    from slam.campaign import run_campaign
+    from slam.kinds.spinning.figures import figures, plot_flight, plot_roll, plot_sweep
+
+    assert list(figures()) == ["errors.png", "roll.png", "rmse_sigma.png", "nees.png",
+                               "differences.png", "sweep.png", "flight.png"]
+    w = tiny_world(**{"runs": 1, "filters.names": ["srckf", "srchinf"]})
+    result = run_campaign(w, workers=1)
+    for draw in (plot_roll, plot_sweep, plot_flight):
+        path = tmp_path / f"{draw.__name__}.png"
+        draw(result, path)
+        assert path.stat().st_size > 10_000, path
+
+
+def test_a_bad_world_exits_2_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    bad = _tiny_file(tmp_path, **{"rate_rev_s = 15.0": "rate_rev_s = -15.0"})
+    res = CliRunner().invoke(slam.cli.main, ["run", str(bad), "--out", str(out)])
+    assert res.exit_code == 2 and "spin" in res.output and "rate_rev_s" in res.output
+    assert not out.exists()
+
+
+def test_sweep_cells_cycle_before_replicating() -> None:
+    spec = tiny_world(**{"sweep.factors": [1.0, 2.0, 5.0],
+                         "sweep.distributions": ["gaussian", "student-t"],
+                         "sweep.runs_per_cell": 2}).sweep
+    cells = [sw.cell_of(spec, t) for t in range(spec.tasks)]
+    assert spec.tasks == 12 and len(set(cells)) == 12
+    assert {c[:2] for c in cells[:6]} == {(d, f) for d in ("gaussian", "student-t")
+                                          for f in (1.0, 2.0, 5.0)}
+    assert [c[2] for c in cells] == [0] * 6 + [1] * 6
