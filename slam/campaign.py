@@ -7,6 +7,13 @@ Each world ``kind`` is a :class:`~slam.kind.Kind` in the registry (:mod:`slam.ki
 ``workers=1``, or any ``map``-like executor) and summarises.  Each worker pins its maths
 library to one thread; seeds come from ``numpy.random.SeedSequence(seed).spawn``, so the result does
 not depend on the executor or the number of workers.
+
+Stopping: a local pool's workers die with the campaign's process (even a SIGKILL to it
+alone; :func:`die_with_parent`) and leave SIGINT to it; an error or Ctrl-C in the
+campaign kills the runs still in flight at once (:func:`stop_pool`).  An exception
+raised in a run (e.g. a :class:`~worlds.schema.WorldError` found while driving the
+path) reaches the caller as itself: the errors the command line turns into exit 2
+pickle with their arguments.
 """
 
 from __future__ import annotations

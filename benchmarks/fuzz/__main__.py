@@ -64,6 +64,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--jsonl", type=Path, help="also append each case's record to this file")
     p.add_argument("--recheck-hangs", type=float, metavar="SECONDS",
                    help="re-run each hang alone with this longer limit, to tell slow from stuck")
+    p.add_argument("--resume", action="store_true",
+                   help="with --jsonl: keep the cases already recorded there (same seed and "
+                        "bases) and run the rest; one stopped from outside (SIGTERM) runs again")
     return p.parse_args(argv)
 
 
@@ -90,14 +93,16 @@ def keep_case(outcome: Outcome, keep: Path) -> None:
 
 
 def run_all(cases: list[Case], workdir: Path, slam: list[str], limits: Limits, jobs: int,
-            stream: TextIO | None = None) -> list[Outcome]:
+            stream: TextIO | None = None, indices: list[int] | None = None) -> list[Outcome]:
     """Run every case, ``jobs`` at a time, reporting progress on stderr (and each record
-    as a JSON line on ``stream``); -> outcomes in input order."""
+    as a JSON line on ``stream``, with its index in ``indices``, default its position);
+    -> outcomes in input order."""
     done: dict[int, Outcome] = {}
     pool = ThreadPoolExecutor(max_workers=max(1, jobs))
+    index = list(range(len(cases))) if indices is None else indices
     try:
         futures = {pool.submit(run_case, c, workdir, slam, limits,
-                               folder_name=f"{i:04d}-{c.ident}"): i
+                               folder_name=f"{index[i]:04d}-{c.ident}"): i
                    for i, c in enumerate(cases)}
         for fut in as_completed(futures):
             o = fut.result()
@@ -105,7 +110,7 @@ def run_all(cases: list[Case], workdir: Path, slam: list[str], limits: Limits, j
             print(f"[{len(done)}/{len(cases)}] {o.klass:<18} {o.seconds:6.1f}s "
                   f"{o.case.family}/{o.case.base}: {o.case.name[:70]}", file=sys.stderr)
             if stream is not None:
-                stream.write(json.dumps({"index": futures[fut], **o.record()},
+                stream.write(json.dumps({"index": index[futures[fut]], **o.record()},
                                         ensure_ascii=False) + "\n")
                 stream.flush()
     except BaseException:
@@ -114,6 +119,23 @@ def run_all(cases: list[Case], workdir: Path, slam: list[str], limits: Limits, j
         raise
     pool.shutdown()
     return [done[i] for i in range(len(cases))]
+
+
+def resumed(jsonl: Path, cases: list[Case]) -> dict[int, Outcome]:
+    """The outcomes already recorded in ``jsonl`` for these ``cases`` (by index), leaving
+    out a case stopped from outside (SIGTERM: the harness itself stops cases with SIGKILL)."""
+    kept: dict[int, Outcome] = {}
+    if not jsonl.exists():
+        return kept
+    for line in jsonl.read_text(encoding="utf-8").splitlines():
+        r = json.loads(line)
+        i = r.get("index")
+        if not isinstance(i, int) or not 0 <= i < len(cases) or r.get("rc") in (143, -15):
+            continue
+        if r["id"] != cases[i].ident:
+            raise SystemExit(f"--resume: {jsonl} holds another campaign (case {i})")
+        kept[i] = Outcome(cases[i], r["class"], r["rc"], r["seconds"], r["detail"])
+    return kept
 
 
 def baselines(bases: list[Base], lines: list[str], workdir: Path, slam: list[str],
@@ -172,11 +194,15 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # so run_all kills the cases
     t0 = time.perf_counter()
     base_classes = baselines(bases, lines, workdir, slam, limits, args.jobs)
+    kept = resumed(args.jsonl, cases) if args.resume and args.jsonl else {}
+    todo = [i for i in range(len(cases)) if i not in kept]
     if args.jsonl:
         with open(args.jsonl, "a", encoding="utf-8") as stream:
-            outcomes = run_all(cases, workdir, slam, limits, args.jobs, stream)
+            ran = run_all([cases[i] for i in todo], workdir, slam, limits, args.jobs, stream,
+                          todo)
     else:
-        outcomes = run_all(cases, workdir, slam, limits, args.jobs)
+        ran = run_all(cases, workdir, slam, limits, args.jobs)
+    outcomes = [kept[i] if i in kept else ran[todo.index(i)] for i in range(len(cases))]
     cases_wall = round(time.perf_counter() - t0, 1)
     report: dict[str, Any] = {
         "config": {"worlds": args.worlds, "logs": args.logs, "seed": args.seed,

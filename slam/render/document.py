@@ -25,8 +25,10 @@ Figure = Callable[[CampaignResult, Path], None]
 def _title(summary: dict[str, Any], world: Any, what: str) -> tuple[str, str, str]:
     name = summary.get("world", getattr(world, "name", "?"))
     description = getattr(world, "description", "")
-    facts = (f"{summary.get('runs', '?')} Monte Carlo runs, seed {summary.get('seed', '?')}, "
-             f"world kind `{summary.get('kind', getattr(world, 'kind', '?'))}`")
+    runs = summary.get("runs")
+    facts = ("" if runs is None else
+             f"{runs} Monte Carlo run{'' if runs == 1 else 's'}, seed {summary.get('seed', '?')}, ")
+    facts += f"world kind `{summary.get('kind', getattr(world, 'kind', '?'))}`"
     return f"{name}: {what}", description, facts
 
 

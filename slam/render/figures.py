@@ -40,10 +40,12 @@ from slam.render.plotting import (
     BASELINE_COLOUR,
     ErrorGrid,
     ErrorPanel,
+    bottom_legend,
     envelope,
     error_grid,
     estimator_colours,
     filter_names,
+    inch_layout,
     plt,
     readable_log_axis,
     run0,
@@ -104,8 +106,8 @@ def base_filter(result: CampaignResult, preferred: Sequence[str] = ("srckf",)) -
 
 def _grid(rows: Sequence[Sequence[Any]], height: float = 2.45, width: float = PANEL_WIDTH):
     ncol = max(len(r) for r in rows)
-    fig, axes = plt.subplots(len(rows), ncol, figsize=(width, 1.0 + height * len(rows)),
-                             sharex=True, squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(len(rows), ncol, figsize=(width, 1.3 + height * len(rows)),
+                             sharex=True, squeeze=False)
     for i, row in enumerate(rows):
         for j in range(len(row), ncol):
             axes[i, j].axis("off")
@@ -119,9 +121,9 @@ def _finish(fig, axes, result: CampaignResult, title: str, handles: list, path) 
     for ax in axes.flat:
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.tick_params(labelsize=9)
-    if handles:
-        fig.legend(handles=handles, loc="outside lower center", fontsize=9,
-                   ncols=min(len(handles), 6), frameon=False)
+    bottom_legend(fig, handles)
+    legend_rows = -(-len(handles) // 6) if handles else 0
+    inch_layout(fig, *axes.shape, bottom=0.55 + 0.22 * legend_rows)
     fig.suptitle(titled(result, title), fontsize=11)
     save(fig, path)
 
@@ -240,11 +242,12 @@ def differences_figure(rows: Sequence[Sequence[Component]], title: str, *,
         for i, row in enumerate(rows):
             for j, c in enumerate(row):
                 ax = axes[i, j]
-                shown = _difference_panel(ax, result, t, c, base, others, col)
+                floor = _difference_panel(ax, result, t, c, base, others, col)
                 ax.set_title(c.axis_label, fontsize=10)
                 ax.set_ylabel(f"RMS difference ({c.unit})", fontsize=9)
-                if shown:
+                if floor is not None:
                     ax.set_yscale("log")
+                    ax.set_ylim(floor, ax.get_ylim()[1])  # not the start's round-off
                     readable_log_axis(ax)
         handles = [Line2D([], [], color=col[n], lw=1.1, label=f"{n} − {base}") for n in others]
         handles.append(Line2D([], [], color="0.2", lw=1.0, ls=":", label=f"{base}: RMS σ"))
@@ -254,26 +257,29 @@ def differences_figure(rows: Sequence[Sequence[Component]], title: str, *,
 
 
 def _difference_panel(ax, result: CampaignResult, t: Array, c: Component, base: str | None,
-                      others: list[str], col: dict[str, str]) -> bool:
+                      others: list[str], col: dict[str, str]) -> float | None:
+    """Draw the differences; -> the y axis' floor (half the 2nd percentile of the drawn
+    differences, so the round-off at a known start stays off the axis), None if none."""
     if base is None or not others:
         ax.text(0.5, 0.5, "one filter: nothing to compare", transform=ax.transAxes,
                 ha="center", fontsize=9)
-        return False
-    shown = False
+        return None
+    floors = []
     for name in others:
         d = paired_differences(result, name, base, c.err)
         if d is None:
             continue
         r = rms(d)
-        if np.any(r > 0):
+        positive = r[np.isfinite(r) & (r > 0)]
+        if positive.size:
             ax.plot(t, np.where(r > 0, r, np.nan), color=col[name], lw=1.0)
-            shown = True
+            floors.append(0.5 * float(np.percentile(positive, 2)))
         else:
             ax.text(0.02, 0.9, f"{name} = {base} exactly", transform=ax.transAxes, fontsize=8)
     sd = None if c.sigma is None else stacked(result, base, c.sigma)
-    if shown and sd is not None:
+    if floors and sd is not None:
         ax.plot(t, rms(sd), color="0.2", lw=1.0, ls=":")
-    return shown
+    return min(floors) if floors else None
 
 
 # --------------------------------------------------------------------------- estimate vs truth

@@ -9,8 +9,8 @@ kind's figures, its extra files (e.g. trajectories) and the marker :data:`MARKER
 Safety (:func:`prepare_output`, called by the command line before a campaign starts):
 
 * the target is used only if it is absent, an empty folder, or a previous output of
-  this tool (it holds :data:`MARKER`); anything else raises :class:`OutputError` and
-  nothing is touched;
+  this tool (it holds :data:`MARKER`, and no file beyond those the marker lists as
+  written); anything else raises :class:`OutputError` and nothing is touched;
 * a symbolic link is followed to its folder (a dangling one is refused), and a target
   that is or contains the current folder is refused;
 * the temporary folder is created at once, so an unwritable place fails before the
@@ -94,25 +94,30 @@ class Staging:
     tmp: Path
     created: list[Path] = field(default_factory=list)
     previous: dict[str, Any] | None = None
+    campaign: dict[str, Any] | None = None
 
 
 def _marked(folder: Path) -> bool:
     return (folder / MARKER).is_file()
 
 
-def read_marker(folder: Path) -> dict[str, Any]:
-    """The campaign recorded in ``folder``'s marker (``{}`` when unreadable)."""
+def read_marker(folder: Path) -> tuple[dict[str, Any], list[str] | None]:
+    """The campaign recorded in ``folder``'s marker (``{}`` when unreadable) and the files
+    it lists as written (``None`` when it lists none)."""
     try:
         data = json.loads((folder / MARKER).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return {}
-    campaign = data.get("campaign") if isinstance(data, dict) else None
-    return campaign if isinstance(campaign, dict) else {}
+        data = {}
+    data = data if isinstance(data, dict) else {}
+    campaign, files = data.get("campaign"), data.get("files")
+    return (campaign if isinstance(campaign, dict) else {},
+            [str(f) for f in files] if isinstance(files, list) else None)
 
 
-def _write_marker(folder: Path, campaign: dict[str, Any] | None) -> None:
-    text = json.dumps({"written_by": "slam (navfilters)", "campaign": campaign or {}},
-                      indent=1, default=str)
+def _write_marker(folder: Path, campaign: dict[str, Any] | None,
+                  files: list[str] | None = None) -> None:
+    data = {"written_by": "slam (navfilters)", "campaign": campaign or {}, "files": files}
+    text = json.dumps(data, indent=1, default=str)
     (folder / MARKER).write_text(text + "\n", encoding="utf-8")
 
 
@@ -148,9 +153,15 @@ def _check_target(path: Path, shown: Path) -> dict[str, Any] | None:
         raise OutputError(f"{shown}: is not empty and is not an earlier output of slam (no "
                           f"{MARKER} file in it); nothing was changed - choose another "
                           "--out or empty the folder")
+    campaign, files = read_marker(path)
+    foreign = sorted(set(names) - {MARKER, *(files if files is not None else names)})
+    if foreign:
+        raise OutputError(f"{shown}: holds {len(foreign)} file(s) slam did not write "
+                          f"({', '.join(foreign[:3])}{', ...' if len(foreign) > 3 else ''});"
+                          " nothing was changed - move them or choose another --out")
     if not os.access(path, os.W_OK | os.X_OK):
         raise OutputError(f"{shown}: is not writable")
-    return read_marker(path)
+    return campaign
 
 
 def _make_parents(parent: Path, shown: Path) -> list[Path]:
@@ -210,7 +221,7 @@ def prepare_output(out_dir: Path, campaign: dict[str, Any] | None = None) -> Sta
         _remove_created(created)
         raise OutputError(f"{out_dir}: cannot write in {path.parent} "
                           f"({exc.strerror or exc})") from None
-    staging = Staging(path, tmp, created, previous)
+    staging = Staging(path, tmp, created, previous, campaign)
     try:
         _write_marker(tmp, campaign)
     except BaseException:
@@ -261,6 +272,7 @@ def commit(staging: Staging, result: CampaignResult, kr: KindReport, *, plots: b
     folder is removed (:func:`abandon`) and an existing output is left as it was."""
     try:
         names = render(result, kr, staging.tmp, plots=plots)
+        _write_marker(staging.tmp, staging.campaign, names)
         _swap_into_place(staging.tmp, staging.out_dir)
     except BaseException:
         abandon(staging)

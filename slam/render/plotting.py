@@ -204,8 +204,8 @@ def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
     names = list(filter_names(result) if names is None else names)
     t = run0(result).times
     fig, axes = plt.subplots(len(names), len(grid.axes),
-                             figsize=(grid.width, grid.top + 1.9 * len(names)), sharex=True,
-                             sharey=grid.sharey, squeeze=False, layout="constrained")
+                             figsize=(grid.width, grid.top + 0.4 + 1.9 * len(names)),
+                             sharex=True, sharey=grid.sharey, squeeze=False)
     lim = np.zeros(len(grid.axes))
     drawn: set[str] = set()
     for row, name in enumerate(names):
@@ -224,11 +224,36 @@ def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
         lim[list(group)] = max(lim[list(group)])
     _set_limits(axes, lim, grid.sharey)
     legend = [LEGEND[k]() for k in grid.legend if k in drawn]
-    if legend:
-        fig.legend(handles=legend, loc="outside lower center", fontsize=9,
-                   ncols=len(legend), frameon=False)
+    bottom_legend(fig, legend)
+    inch_layout(fig, len(names), len(grid.axes), bottom=0.55 + 0.25 * bool(legend),
+                hgap=0.25)
     fig.suptitle(titled(result, grid.title), fontsize=11)
     save(fig, path)
+
+
+def bottom_legend(fig: plt.Figure, handles: Sequence, ncols: int = 6) -> None:
+    """A frameless legend along the bottom edge of the figure (rows of ``ncols``)."""
+    if handles:
+        fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+                   fontsize=9, ncols=min(len(handles), ncols), frameon=False)
+
+
+def inch_layout(fig: plt.Figure, nrows: int, ncols: int, *, left: float = 0.8,
+                right: float = 0.15, top: float = 0.65, bottom: float = 0.55,
+                wgap: float = 0.85, hgap: float = 0.55, grid=None) -> None:
+    """Place a grid of axes (the figure's subplots, or ``grid``, a GridSpec) with margins
+    and gaps in inches: a fixed layout, about a third cheaper to draw than constrained
+    layout (which lays out every tick label once more).  The defaults hold 9-point tick
+    labels and axis labels, panel titles and a one-line bottom legend."""
+    W, H = fig.get_size_inches()
+    aw = max((W - left - right - (ncols - 1) * wgap) / ncols, 0.1)
+    ah = max((H - top - bottom - (nrows - 1) * hgap) / nrows, 0.1)
+    box = {"left": left / W, "right": 1.0 - right / W, "top": 1.0 - top / H,
+           "bottom": bottom / H, "wspace": wgap / aw, "hspace": hgap / ah}
+    if grid is None:
+        fig.subplots_adjust(**box)
+    else:
+        grid.update(**box)
 
 
 def readable_log_axis(ax: plt.Axes, axis: str = "y") -> None:

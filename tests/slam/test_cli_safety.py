@@ -12,6 +12,8 @@ import subprocess
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import slam.campaign
 from slam import cli
@@ -75,6 +77,9 @@ def test_an_earlier_output_is_replaced_and_named(tmp_path):
     assert "replaced the earlier results" in res.output and "seed 5" in res.output
     assert json.loads((out / "summary.json").read_text())["seed"] == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "small.toml"]
+    (out / "notes.txt").write_text("mine")  # added by the user since: not slam's to delete
+    assert "notes.txt" in _one_error_line(_run(world, "--out", out, *FAST))
+    assert (out / "notes.txt").read_text() == "mine"
 
 
 def test_the_default_folder_names_the_campaign(tmp_path, monkeypatch):
@@ -135,3 +140,11 @@ def test_same_seed_same_summary_on_any_executor(tmp_path):
     a, b = (json.loads((d / "summary.json").read_text()) for d in (one, two))
     assert strip_timings(a) == strip_timings(b) and a != strip_timings(a)
     assert sorted(os.listdir(one)) == sorted(os.listdir(two))
+
+
+@given(st.text(max_size=3000))
+@settings(max_examples=200, deadline=None, database=None)
+def test_any_message_becomes_one_printable_bounded_line(text):
+    out = cli.clean_message(text)
+    assert out.isprintable() and len(out) <= 2040
+    assert all(len(tok) <= 170 for tok in out.split(" "))

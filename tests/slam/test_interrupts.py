@@ -97,4 +97,6 @@ def test_stopping_the_pool_does_not_wait_for_runs_in_flight():
     t0 = time.monotonic()
     stop_pool(pool)
     assert time.monotonic() - t0 < 2.0
-    assert not any(p.is_alive() for p in procs)
+    # the OS's view (a killed, unreaped worker is a zombie): Process.is_alive() races with
+    # the executor's own manager thread reaping the same children
+    assert not [p.pid for p in procs if _alive(p.pid)]

@@ -59,16 +59,20 @@ from slam.render.plotting import (
     titled,
 )
 from slam.render.tables import (
+    DIVERGED,
     DIVERGED_SHORT,
     ESTIMATOR,
+    LANDMARK_RMSE,
     MISSING,
+    NIS,
+    POS_RMSE,
     Column,
     Table,
     band_note,
     consistency_columns,
     consistency_rule,
+    error_range,
     num,
-    slam_table,
     terminal_text,
     value,
 )
@@ -85,11 +89,15 @@ def _attitude_cell(name: str, e: dict[str, Any]) -> str:
     return "/".join(num(att.get(a), ".3f") for a in _ATT) if att else MISSING
 
 
-TABLE = slam_table(
-    _AXES, Column("roll/pitch/yaw RMSE (deg)", _attitude_cell),
-    [*consistency_columns("anees", "pos"), *consistency_columns("anees_pose6", "pose")],
-    Column("time/epoch (ms)", value("time_per_step_s", ".2f", 1e3)))
-"""The report's results table (every column)."""
+TABLE = Table((ESTIMATOR, POS_RMSE, *map(error_range, _AXES),
+               Column("roll/pitch/yaw RMSE (deg)", _attitude_cell), LANDMARK_RMSE,
+               Column("time/epoch (ms)", value("time_per_step_s", ".2f", 1e3)), DIVERGED))
+"""The report's results table: accuracy and time."""
+
+CONSISTENCY = Table((ESTIMATOR, *consistency_columns("anees", "position"),
+                     *consistency_columns("anees_pose6", "pose"), NIS))
+"""The report's consistency table: position and pose ANEES, fraction of epochs in band,
+verdict, NIS."""
 
 COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                  Column("yaw RMSE\n(deg)", value("heading_rmse_deg", ".3f")),
@@ -159,6 +167,8 @@ def _flight_note(summary: dict[str, Any]) -> str:
 def drone_sections(summary: dict[str, Any]) -> list[Section]:
     """Results, the paper's x/y/z ranges next to ours, per-loop drift, how to read."""
     out = [Section("Results", TABLE.header, TABLE.rows(summary), _flight_note(summary)),
+           Section("Consistency", CONSISTENCY.header, CONSISTENCY.rows(summary),
+                   consistency_rule()),
            paper_ranges_section(summary, "Paper vs ours: drone position error ranges",
                                 "Ours are the minimum and maximum error over every epoch of "
                                 "every run that did not diverge.")]
@@ -176,7 +186,7 @@ def drone_sections(summary: dict[str, Any]) -> list[Section]:
 def plot_errors_xyz(result: CampaignResult, path: Path) -> None:
     """``errors_xyz.png``: one row per filter, x / y / z error vs time, run 0 with its ±2σ,
     the Monte Carlo envelope, the smoother and the paper's ranges."""
-    error_grid_figure(POSITION, "drone position error (run 0 with its ±2σ; Monte Carlo "
+    error_grid_figure(POSITION, "position error (run 0 with its ±2σ; Monte Carlo "
                       "envelope)", paper=quoted_position_range, colours=drone_colours)(
         result, path)
 

@@ -61,7 +61,7 @@ def plot_trajectories(result: CampaignResult, path) -> None:
     odo = tracks.get(ODOMETRY)
     if odo is not None:
         ax.plot(odo.poses[:, 0], odo.poses[:, 1], color=BASELINE_COLOUR, lw=0.8, ls=":",
-                label="odometry (dead reckoning)")
+                label="odometry (dead reckoning; may leave the frame)")
     for name in _filters(result):
         tr = tracks[name]
         ax.plot(tr.poses[:, 0], tr.poses[:, 1], color=col[name], lw=0.9, label=name)
@@ -73,6 +73,7 @@ def plot_trajectories(result: CampaignResult, path) -> None:
         ax.plot(ref.landmarks[:, 0], ref.landmarks[:, 1], "o", mfc="none",
                 color=REFERENCE_COLOUR, ms=6, label="smoother's landmarks")
     ax.plot([], [], "+", color="0.3", label="filters' landmarks")
+    _frame(ax, [tracks[n] for n in tracks if n != ODOMETRY])
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m, frame of the first pose)")
     ax.set_ylabel("y (m)")
@@ -80,6 +81,19 @@ def plot_trajectories(result: CampaignResult, path) -> None:
     ax.legend(fontsize=9, loc="best")
     ax.set_title(titled(result, "paths and final maps"), fontsize=11)
     save(fig, path)
+
+
+def _frame(ax, tracks: list) -> None:
+    """Axis limits holding the smoother's and the filters' paths and maps (10 % margin):
+    the odometry may leave the frame."""
+    pts = [p for tr in tracks for p in (tr.poses[:, :2], tr.landmarks)]
+    pts = np.concatenate(pts) if pts else np.zeros((0, 2))
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if len(pts):
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.1 * max(float(np.max(hi - lo)), 1.0)
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
 
 
 def plot_aligned_map(result: CampaignResult, path) -> None:
