@@ -129,16 +129,16 @@ def worlds_cmd() -> None:
         click.echo(f"{name:<{width}}  {kind:<{kwidth}}  {desc}")
 
 
-def _parse_filters(value: str | None, default: Sequence[str]) -> list[str]:
-    from estimators import FILTER_NAMES
-
+def _parse_filters(value: str | None, default: Sequence[str],
+                   allowed: Sequence[str]) -> list[str]:
+    """``--filters`` as a list of names, each one of the kind's ``allowed`` filters."""
     if value is None:
         return list(default)
     names = [v.strip() for v in value.split(",") if v.strip()]
-    bad = [n for n in names if n not in FILTER_NAMES]
+    bad = [n for n in names if n not in allowed]
     if not names or bad:
         raise InputError(f"--filters: unknown filter {', '.join(bad) or '(none)'}; "
-                         f"allowed: {', '.join(FILTER_NAMES)} (comma-separated)")
+                         f"allowed: {', '.join(allowed)} (comma-separated)")
     if len(set(names)) != len(names):
         raise InputError(f"--filters {value}: names a filter twice")
     return names
@@ -211,7 +211,7 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
-    names = _parse_filters(filters, w.filters.names)
+    names = _parse_filters(filters, w.filters.names, kind.filters)
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:
         _check_mode(kind, names, world_mode,
@@ -285,7 +285,8 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
     kind = log_kind()
     try:
-        w = kind.open_log(Path(log_file), _parse_filters(filters, ()) or None, mode)
+        w = kind.open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None,
+                          mode)
     except LogFormatError as exc:
         raise InputError(f"--log {exc}") from None
     return w, kind

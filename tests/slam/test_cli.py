@@ -118,3 +118,18 @@ def test_worlds_lists_the_bundled_worlds():
     assert res.exit_code == 0
     for name in ("bailey", "webmap", "densemap"):
         assert re.search(rf"^{name}\s+planar-slam", res.output, re.M)
+
+
+def test_filters_are_checked_against_the_worlds_kind(tmp_path):
+    """``--filters`` takes the filters of the world's kind: the H∞ filters run on the
+    spinning kind and are refused, with the kind's list, on a planar world."""
+    from slam.registry import get_kind
+
+    assert cli._parse_filters("srchinf,uthinf", (), get_kind("spinning").filters) == [
+        "srchinf", "uthinf"]
+    res = CliRunner().invoke(cli.main, ["run", str(write_world(tmp_path)), "--filters",
+                                        "srchinf", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    line = res.output.strip().splitlines()[-1]
+    assert "unknown filter srchinf" in line and "hommukf" in line and "uthinf" not in line
+    assert not (tmp_path / "o").exists()

@@ -7,6 +7,6 @@ from slam.kinds.spinning.report import REPORT
 from slam.kinds.spinning.run import run_once
 from slam.kinds.spinning.summary import summarize
 from slam.kinds.spinning.world import KIND as NAME
-from slam.kinds.spinning.world import parse
+from slam.kinds.spinning.world import NAMES, parse
 
-KIND = Kind(NAME, parse, run_once, summarize, REPORT)
+KIND = Kind(NAME, parse, run_once, summarize, REPORT, filters=NAMES)
