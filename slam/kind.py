@@ -53,10 +53,10 @@ class Kind:
         ``--mode``); empty when the kind has none.
     mode_filters : filters each non-default mode supports (mode -> names); a mode not
         listed supports every filter.
-    filters : every filter name a world of this kind can run (``--filters``, the world
-        file's list); the standard Kalman-type filters unless the kind says more.
     open_log : for a kind that reads recorded logs, ``open_log(path, filters, mode)`` ->
         a world of this kind (``slam run --log FILE``); ``None`` otherwise.
+    filters : every filter name a world of this kind can run (``--filters``, the world
+        file's list); the standard Kalman-type filters unless the kind says more.
     """
 
     name: str
@@ -66,5 +66,5 @@ class Kind:
     report: KindReport
     modes: tuple[str, ...] = ()
     mode_filters: dict[str, tuple[str, ...]] | None = None
-    filters: tuple[str, ...] = FILTER_NAMES
     open_log: Callable[[Path, Sequence[str] | None, str | None], Any] | None = None
+    filters: tuple[str, ...] = FILTER_NAMES
