@@ -112,7 +112,18 @@ def _exit(code: int, fast: bool = False) -> None:
     sys.exit(code)
 
 
+def _print_version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    if value and not ctx.resilient_parsing:
+        from slam.render.provenance import version_text
+
+        click.echo(version_text())
+        ctx.exit(0)
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True,
+              callback=_print_version,
+              help="Show the version, git commit, Python and library versions, and exit.")
 def main() -> None:
     """Workbench for nonlinear navigation filters, scored against a GTSAM smoother."""
 
@@ -298,6 +309,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
     the report folder, print the table."""
     from slam.kinds.recorded.log import LogFormatError
     from slam.render.output import OutputError, abandon, commit, prepare_output
+    from slam.render.provenance import provenance
     from worlds import WorldError
 
     try:
@@ -306,6 +318,9 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         raise InputError(f"--out {exc}") from None
     try:
         result, elapsed = _campaign(w, campaign, workers, scheduler)
+        result.summary["provenance"] = provenance(
+            source=getattr(w, "source", None), seed=campaign["seed"], runs=campaign["runs"],
+            workers=workers, scheduler=scheduler, wall_time_s=elapsed)
         commit(staging, result, kind.report, plots=plots)
     except (WorldError, LogFormatError) as exc:  # found during the run: still bad input
         abandon(staging)

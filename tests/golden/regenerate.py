@@ -142,9 +142,11 @@ def differences(golden: Any, new: Any, where: str = "summary") -> list[str]:
 
 
 def strip_timings(obj: Any) -> Any:
-    """``obj`` without any dict key containing ``time`` (at any depth)."""
+    """``obj`` without any dict key containing ``time`` (at any depth) and without the
+    ``provenance`` block (when, where and how the campaign ran: not a result)."""
     if isinstance(obj, dict):
-        return {k: strip_timings(v) for k, v in obj.items() if "time" not in str(k)}
+        return {k: strip_timings(v) for k, v in obj.items()
+                if "time" not in str(k) and k != "provenance"}
     if isinstance(obj, list | tuple):
         return [strip_timings(v) for v in obj]
     return obj

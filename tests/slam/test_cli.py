@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 
@@ -47,6 +48,11 @@ def test_run_small_world_end_to_end(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["world"] == "small" and summary["runs"] == 2 and summary["seed"] == 5
     assert set(summary["filters"]) == {"ekf", "srckf"}
+    prov = summary["provenance"]
+    assert (prov["world_file"], prov["seed"], prov["runs"], prov["workers"]) == (
+        str(world), 5, 2, 1)
+    assert prov["world_sha256"] == hashlib.sha256(world.read_bytes()).hexdigest()
+    assert "Provenance" in (out / "report.md").read_text()
     for f in ("report.md", "report.html", "map.png", "errors_xy.png", "nees.png",
               "srckf.tum", "truth.tum"):
         assert (out / f).stat().st_size > 0
@@ -133,3 +139,11 @@ def test_filters_are_checked_against_the_worlds_kind(tmp_path):
     line = res.output.strip().splitlines()[-1]
     assert "unknown filter srchinf" in line and "hommukf" in line and "uthinf" not in line
     assert not (tmp_path / "o").exists()
+
+
+def test_version_names_the_package_python_and_libraries():
+    res = CliRunner().invoke(cli.main, ["--version"])
+    assert res.exit_code == 0, res.output
+    first, libs = res.output.strip().splitlines()
+    assert first.startswith("navfilters ") and "Python" in first
+    assert "numpy" in libs and "gtsam" in libs
