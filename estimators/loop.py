@@ -38,6 +38,15 @@ from estimators.linalg import Array
 from estimators.models import Belief, Innovation, Transition
 
 FAILURES: tuple[type[BaseException], ...] = (np.linalg.LinAlgError, ArithmeticError)
+
+_epoch_hook: Callable[[], None] | None = None
+
+
+def set_epoch_hook(hook: Callable[[], None] | None) -> None:
+    """Call ``hook()`` after every epoch of every :func:`run_epochs` in this process
+    (progress reporting only: it sees nothing and changes nothing); ``None`` removes it."""
+    global _epoch_hook
+    _epoch_hook = hook
 """Exceptions that end a run as a divergence (``FloatingPointError`` and
 :class:`Divergence` are ``ArithmeticError``\\ s)."""
 
@@ -127,6 +136,8 @@ def run_epochs(filt: Any, belief: Belief, n_epochs: int, *,
                     belief = b
                     record(e, belief)
                     done = e
+                    if _epoch_hook is not None:
+                        _epoch_hook()
                     if check is not None:
                         check(e, belief)
             finally:

@@ -18,14 +18,17 @@ pickle with their arguments.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from typing import Any
 
 import numpy as np
 
+from estimators.loop import set_epoch_hook
 from slam.registry import KINDS
 from slam.results import CampaignResult, RunOutcome
 
@@ -63,15 +66,28 @@ def die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def init_worker(parent: int) -> None:
+def count_epochs(counter: Any) -> None:
+    """Add every filter epoch this process runs to the shared ``counter`` (a
+    ``multiprocessing.Value``) for the progress display."""
+    def tick() -> None:
+        with counter.get_lock():
+            counter.value += 1
+
+    set_epoch_hook(tick)
+
+
+def init_worker(parent: int, counter: Any = None) -> None:
     """A pool worker: dies with the campaign's process, leaves SIGINT to it (the parent
-    stops the pool on Ctrl-C) and pins its maths library to one thread."""
+    stops the pool on Ctrl-C), pins its maths library to one thread and counts its filter
+    epochs into ``counter`` (if given)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):  # blocked while the parent forked us
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
     die_with_parent(parent)
     pin_threads()
+    if counter is not None:
+        count_epochs(counter)
 
 
 def stop_pool(pool: ProcessPoolExecutor) -> None:
@@ -140,10 +156,17 @@ def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[
     return [(world, i, s, list(filters), i == 0) for i, s in enumerate(run_seeds(seed, runs))]
 
 
+def _poll(counter: Any, report: Callable[[int], None], done: threading.Event) -> None:
+    """``report(counter.value)`` every half second until ``done``."""
+    while not done.wait(0.5):
+        report(int(counter.value))
+
+
 def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | None = None,
                  seed: int | None = None, workers: int = 1,
                  mapper: Callable[[Callable, Iterable], Iterable] | None = None,
-                 progress: Callable[[int], None] | None = None) -> CampaignResult:
+                 progress: Callable[[int], None] | None = None,
+                 epochs: Callable[[int], None] | None = None) -> CampaignResult:
     """Run a Monte Carlo campaign on ``world``.
 
     Parameters
@@ -153,6 +176,9 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     mapper : an alternative ``map(fn, iterable)`` (e.g. over a Dask cluster);
         overrides ``workers``.  Results may arrive in any order.
     progress : called with 1 after each finished run.
+    epochs : called about twice a second from another thread with the number of filter
+        epochs run so far (all filters, all runs; not with ``mapper``), so that progress
+        moves within a run.
     """
     if world.kind not in KINDS:
         raise ValueError(f"no scenario kind {world.kind!r} is registered")
@@ -162,15 +188,22 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     tasks = campaign_tasks(world, filters, runs, seed)
     outcomes: list[RunOutcome] = []
     pool = None
+    counter = multiprocessing.Value("q", 0) if epochs is not None and mapper is None else None
     if mapper is not None:
         it = mapper(run_task, tasks)
     elif workers <= 1:
         pin_threads()
+        if counter is not None:
+            count_epochs(counter)
         it = map(run_task, tasks)
     else:
         pool = ProcessPoolExecutor(max_workers=workers, initializer=init_worker,
-                                   initargs=(os.getpid(),))
+                                   initargs=(os.getpid(), counter))
         it = _pool_results(pool, tasks)
+    done = threading.Event()
+    if counter is not None and epochs is not None:
+        threading.Thread(target=_poll, args=(counter, epochs, done), daemon=True,
+                         name="epoch-progress").start()
     try:
         for out in it:
             outcomes.append(out)
@@ -182,6 +215,11 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
             pool = None
         raise
     finally:
+        done.set()
+        if counter is not None and epochs is not None:
+            epochs(int(counter.value))  # the final count, however short the campaign
+        if counter is not None and workers <= 1:
+            set_epoch_hook(None)
         if pool is not None:
             pool.shutdown(cancel_futures=True)
     outcomes.sort(key=lambda o: o.run)

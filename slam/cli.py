@@ -317,7 +317,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
     """Prepare the output (before any work), run the campaign (local pool or Dask), write
     the report folder, print the table."""
     from slam.kinds.recorded.log import LogFormatError
-    from slam.render.output import OutputError, abandon, commit, prepare_output
+    from slam.render.output import OutputError, abandon, prepare_output
     from slam.render.provenance import provenance
     from worlds import WorldError
 
@@ -330,7 +330,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         result.summary["provenance"] = provenance(
             source=getattr(w, "source", None), seed=campaign["seed"], runs=campaign["runs"],
             workers=workers, scheduler=scheduler, wall_time_s=elapsed)
-        commit(staging, result, kind.report, plots=plots)
+        _render(staging, result, kind.report, plots)
     except (WorldError, LogFormatError) as exc:  # found during the run: still bad input
         abandon(staging)
         raise InputError(str(exc) if isinstance(exc, WorldError) else f"--log {exc}") from None
@@ -346,6 +346,23 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
     if staging.previous is not None and staging.previous != campaign:
         click.echo(f"note: replaced the earlier results in {out}/ "
                    f"({describe_campaign(staging.previous)})")
+
+
+def _render(staging, result, report, plots: bool) -> None:
+    """Write the report folder, with a progress bar over the figures."""
+    from tqdm import tqdm
+
+    from slam.render.output import commit
+
+    with tqdm(desc="report: figures", unit="fig", file=sys.stderr, disable=None) as bar:
+        def progress(name: str, i: int, n: int) -> None:
+            bar.total = n
+            bar.n = i
+            bar.set_postfix_str(name)
+
+        commit(staging, result, report, plots=plots, progress=progress)
+        bar.n = bar.total or 0
+        bar.refresh()
 
 
 def describe_campaign(c: dict[str, Any]) -> str:
@@ -373,9 +390,12 @@ def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
     try:
         with tqdm(total=campaign["runs"], desc=f"{w.name}: runs", unit="run",
                   file=sys.stderr, disable=None) as bar:
+            def epochs(n: int) -> None:
+                bar.set_postfix_str(f"{n:,} filter epochs")
+
             result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
                                   seed=campaign["seed"], workers=workers, mapper=mapper,
-                                  progress=bar.update)
+                                  progress=bar.update, epochs=None if bar.disable else epochs)
     finally:
         if client is not None:
             client.close()

@@ -29,7 +29,7 @@ import shutil
 import stat
 import tempfile
 import uuid
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,13 +50,17 @@ class OutputError(Exception):
     and the reason.  Nothing has been changed when it is raised."""
 
 
-def render(result: CampaignResult, kr: KindReport, out_dir: Path, *, plots: bool = True
-           ) -> list[str]:
-    """Write every output file into the existing folder ``out_dir`` (not atomic)."""
+def render(result: CampaignResult, kr: KindReport, out_dir: Path, *, plots: bool = True,
+           progress: Callable[[str, int, int], None] | None = None) -> list[str]:
+    """Write every output file into the existing folder ``out_dir`` (not atomic);
+    ``progress(name, i, n)`` is called before figure ``i`` of ``n`` is drawn."""
     (out_dir / SUMMARY).write_text(summary_json(result.summary), encoding="utf-8")
     figures: dict[str, bytes] = {}
     if plots:
-        for name, (plot, _) in kr.figures().items():
+        specs = kr.figures()
+        for i, (name, (plot, _)) in enumerate(specs.items()):
+            if progress is not None:
+                progress(name, i, len(specs))
             plot(result, out_dir / name)
             figures[name] = (out_dir / name).read_bytes()
     (out_dir / "report.md").write_text(report_markdown(result, kr, list(figures)),
@@ -266,12 +270,13 @@ def _swap_into_place(new: Path, out_dir: Path) -> None:
         os.rename(new, out_dir)
 
 
-def commit(staging: Staging, result: CampaignResult, kr: KindReport, *, plots: bool = True
-           ) -> list[Path]:
-    """Render into the staging folder and swap it into place; on any error the staging
-    folder is removed (:func:`abandon`) and an existing output is left as it was."""
+def commit(staging: Staging, result: CampaignResult, kr: KindReport, *, plots: bool = True,
+           progress: Callable[[str, int, int], None] | None = None) -> list[Path]:
+    """Render into the staging folder (``progress`` as in :func:`render`) and swap it
+    into place; on any error the staging folder is removed (:func:`abandon`) and an
+    existing output is left as it was."""
     try:
-        names = render(result, kr, staging.tmp, plots=plots)
+        names = render(result, kr, staging.tmp, plots=plots, progress=progress)
         _write_marker(staging.tmp, staging.campaign, names)
         _swap_into_place(staging.tmp, staging.out_dir)
     except BaseException:
