@@ -31,6 +31,7 @@ from .linalg import Array, chol, kalman_gain
 from .linearise import linearise_measurement, linearise_transition
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from .partitioned import BlockLayout, EkfBlockSteps
+from .sigma_points import psd_factor
 from .spaces import Space
 
 
@@ -80,7 +81,9 @@ class ExtendedKalmanFilter:
         require_finite("prior factor", sqrt)
         if cov is None:
             cov = np.asarray(sqrt) @ np.asarray(sqrt).T
-        require_finite("prior covariance", cov)
+        else:
+            require_finite("prior covariance", cov)
+            psd_factor(np.asarray(cov, dtype=float))  # raises for a negative eigenvalue
         return Gaussian(np.asarray(mean, dtype=float), np.asarray(cov, dtype=float), space)
 
     def predict(self, belief: Belief, model: Transition, u: Any = None) -> Gaussian:

@@ -48,7 +48,7 @@ from .linalg import (
 from .models import Belief, Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
 from .partitioned import BlockLayout, SqrtSigmaBlockSteps, refuse_partitioned
 from .rules import Factor, PointRule
-from .sigma_points import Form, SqrtMethod, dense_cov, draw, factorise
+from .sigma_points import Form, SqrtMethod, dense_cov, draw, factorise, prior_factor
 from .spaces import Space
 
 
@@ -157,7 +157,7 @@ class SigmaPointFilter:
         require_finite("prior mean", mean)
         require_finite("prior covariance", cov)
         if sqrt is None:
-            sqrt = chol(np.asarray(cov, dtype=float))
+            sqrt = prior_factor(np.asarray(cov, dtype=float))
         sqrt = np.asarray(sqrt, dtype=float)
         require_finite("prior factor", sqrt)
         if self.form == "dense":

@@ -62,6 +62,16 @@ def psd_factor(P: Array) -> Array:
     return U * np.sqrt(np.clip(lam, 0.0, None))
 
 
+def prior_factor(P: Array) -> Array:
+    """Lower-triangular factor of a prior covariance ``P``: its Cholesky factor, or for a
+    positive semi-definite (singular) prior, e.g. a state known exactly, the
+    triangularised :func:`psd_factor`; a clearly negative eigenvalue still raises."""
+    try:
+        return chol(P)
+    except NotPositiveDefiniteError:
+        return tria(psd_factor(P))
+
+
 def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,
          method: SqrtMethod = "cholesky") -> tuple[Array, Array, Array, Array]:
     """Sigma points of ``belief`` (optionally jointly with an independent noise input).

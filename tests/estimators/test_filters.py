@@ -13,6 +13,7 @@ import pytest
 
 from estimators import (
     FILTER_NAMES,
+    ROBUST_FILTER_NAMES,
     Angle,
     Cubature,
     Euclidean,
@@ -60,6 +61,27 @@ def test_linear_gaussian_reduces_to_kalman(name):
         np.testing.assert_allclose(b.mean, xr, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(b.cov, Pr, rtol=1e-9, atol=1e-13)
         assert inn.nis == pytest.approx(nis_r, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", FILTER_NAMES + ROBUST_FILTER_NAMES)
+def test_a_semidefinite_prior_is_accepted_and_a_negative_one_refused(name):
+    """A state component known exactly (variance 0, or a σ whose square underflows) is a
+    valid prior: every filter starts from it and still equals the Kalman filter; a
+    covariance with a clearly negative eigenvalue raises."""
+    us, zs = simulate_linear(50, seed=2)
+    x0, P0 = np.zeros(4), np.diag([0.0, 2.0, (5e-324) ** 2, 1.5])
+    ref = kalman_reference(x0, P0, us, zs)
+    filt = make_filter(name, gamma=np.inf)
+    tr, me = linear_models(with_jacobians=True)
+    b = filt.init(x0, Euclidean(4), cov=P0)
+    np.testing.assert_allclose(b.cov, P0, atol=1e-15)
+    for u, z in zip(us, zs):
+        b, _ = filt.update(filt.predict(b, tr, u), me, z)
+    xr, Pr, _ = ref[-1]
+    np.testing.assert_allclose(b.mean, xr, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(b.cov, Pr, rtol=1e-8, atol=1e-12)
+    with pytest.raises(NotPositiveDefiniteError):
+        filt.init(x0, Euclidean(4), cov=np.diag([1.0, -1e-3, 1.0, 1.0]))
 
 
 def test_ekf_numerical_jacobian_matches_analytic_on_linear_model():

@@ -37,7 +37,19 @@ def test_run_reference_returns_the_reason_and_lets_bugs_through():
     assert reason(np.linalg.LinAlgError("x\ny")) == "LinAlgError: x y"
 
 
-@pytest.mark.parametrize("kind", ["planar", "drone", "attitude"])
+def _ship():
+    from tests.slam.kinds.ship.worlds import ship_world
+
+    return ship_world(20.0, runs=1)
+
+
+def _spinning():
+    from tests.slam.kinds.spinning.helpers import tiny_world
+
+    return tiny_world(runs=1)
+
+
+@pytest.mark.parametrize("kind", ["planar", "drone", "attitude", "ship", "spinning"])
 def test_a_failed_smoother_is_a_failed_reference(kind, monkeypatch):
     module, smoother, world = {
         "planar": ("slam.kinds.planar.run", "smooth_planar", lambda: small_world(runs=1)),
@@ -45,6 +57,8 @@ def test_a_failed_smoother_is_a_failed_reference(kind, monkeypatch):
                   lambda: small_drone_world(runs=1, filters={"names": ["ekf"]})),
         "attitude": ("slam.kinds.attitude.run", "smooth_attitude",
                      lambda: short_star_sensor_world(10.0, runs=1)),
+        "ship": ("slam.kinds.ship.run", "smooth_ship", _ship),
+        "spinning": ("slam.kinds.spinning.run", "smooth", _spinning),
     }[kind]
     monkeypatch.setattr(f"{module}.{smoother}", _fail)
     w = world()
@@ -53,7 +67,7 @@ def test_a_failed_smoother_is_a_failed_reference(kind, monkeypatch):
     assert ref["runs_scored"] == 0 and ref["diverged_runs"] == 1
     assert ref["failures"] == [reason(RuntimeError(INDETERMINATE))]
     assert summary["filters"]["ekf"]["runs_scored"] == 1
-    assert np.isfinite(summary["filters"]["ekf"]["pos_rmse_m" if kind != "attitude"
+    assert np.isfinite(summary["filters"]["ekf"]["pos_rmse_m" if kind in ("planar", "drone")
                                                  else "anees"])
 
 

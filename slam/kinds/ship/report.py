@@ -21,11 +21,15 @@ from slam.render.document import KindReport, Section, captioned
 from slam.render.tables import (
     MISSING,
     anees_cell,
+    band_note,
     diverged_cell,
     estimator_entries,
+    failure_notes,
     markdown_table,
     num,
     plain_table,
+    verdict,
+    wrap,
 )
 from slam.results import REFERENCE
 
@@ -73,7 +77,8 @@ def _treatment(name: str, e: dict[str, Any]) -> str:
 RESULT_HEADER = ("estimator", "treatment", "RMS roll (′)", "RMS pitch (′)", "RMS yaw (′)",
                  "RMS yaw ss (′)", "roll/pitch < 10′ from (s) median [max]",
                  "yaw < 10′ from (s)", "|yaw| at end (′) mean (p95)", "ANEES [95 % band]",
-                 "epochs in band", "ANEES att", "NIS/dof ss", "ms/cycle", "diverged")
+                 "epochs in band", "verdict", "ANEES att", "NIS/dof ss", "ms/cycle",
+                 "diverged")
 
 
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
@@ -81,7 +86,7 @@ def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     return [[name, _treatment(name, e), *_axes(e.get("att_rms_arcmin")),
              num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"), _converge(e),
              _converge(e, "converge_yaw_s"), _final_yaw(e), anees_cell(e),
-             num(e.get("anees_inside_95"), ".0%"),
+             num(e.get("anees_inside_95"), ".0%"), _verdict_word(e),
              anees_cell(e, "anees_att", "anees_att_bounds_95"),
              num(e.get("nis_mean_steady"), ".2f"), _time(name, e), diverged_cell(e)]
             for name, e in estimator_entries(summary)]
@@ -254,19 +259,27 @@ def ship_tables(summary: dict[str, Any]) -> str:
     return "\n".join(parts)
 
 
+def _verdict_word(entry: dict[str, Any]) -> str:
+    return verdict(entry, inside="anees_inside_95", above="anees_above_95") or MISSING
+
+
 def text_table(summary: dict[str, Any]) -> str:
-    """The results and the effects as aligned plain text (for the terminal)."""
-    res = [[r[0], r[2], r[3], r[4], r[5], r[6], r[8], r[9], r[13], r[14]]
+    """The results and the effects as aligned plain text that fits the terminal (the
+    ANEES band in a note), the failure reasons and the verdicts."""
+    res = [[*r[:1], *r[2:6], r[9].split(" [")[0], *r[10:12], *r[14:16]]
            for r in result_rows(summary)]
-    head = ["estimator", "RMS roll′", "RMS pitch′", "RMS yaw′", "yaw ss′", "r/p<10′ (s)",
-            "|yaw| end′", "ANEES [band]", "ms/cycle", "diverged"]
-    eff = [[r[0], r[1], r[3], r[4], r[7], r[8], r[10]] for r in effect_rows(summary)]
+    head = ["estimator", "roll′", "pitch′", "yaw′", "yaw ss′", "ANEES", "in band", "verdict",
+            "ms/cycle", "diverged"]
+    eff = [[r[0], r[1], r[3], r[4], r[7], r[8], r[10].split(" [")[0]]
+           for r in effect_rows(summary)]
     parts = [plain_table(head, res)]
     if eff:
-        parts += ["", plain_table(["step", "estimator", "mean", "measurement", "RMS yaw′",
-                                   "yaw ss′", "ANEES [band]"], eff)]
-    verdicts = [v for v in (_verdict(summary), _verdict(summary, paper=False)) if v]
-    return "\n".join(parts + ["", *verdicts] if verdicts else parts)
+        parts += ["", plain_table(["step", "estimator", "mean", "measurement", "yaw′",
+                                   "yaw ss′", "ANEES"], eff)]
+    notes = ["RMS errors in arcmin; yaw ss′: from the steady-state start (convergence times "
+             "and final yaw in the report).", band_note(summary), *failure_notes(summary),
+             _verdict(summary), _verdict(summary, paper=False)]
+    return "\n".join([*parts, "", *(wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,

@@ -30,6 +30,7 @@ from estimators import Measurement, Transition, make_filter
 from estimators.loop import run_epochs
 from estimators.models import Belief
 from nav.euler import euler_zyx_to_q, q_to_euler_zyx
+from slam.failures import run_reference
 from slam.kinds.attitude.run import EstimateSeries
 from slam.kinds.ship.models import (
     Treatment,
@@ -139,7 +140,11 @@ def run_once(world: ShipWorld, run: int, seed_seq: np.random.SeedSequence,
     series = [run_filter(log, n, treatment(t), x0, P0, trans, vec, main)
               for n, t, main in estimators(world, filters)]
     if reference:
-        series.append(smooth_ship(log, x0, P0, g.arw_rad_sqrt_s, g.bias_rw_rad_s_sqrt_s))
+        ref, failure = run_reference(smooth_ship, log, x0, P0, g.arw_rad_sqrt_s,
+                                     g.bias_rw_rad_s_sqrt_s)
+        M = log.n_updates  # a smoother failure: no estimate, diverged with its reason
+        series.append(ref or EstimateSeries(REFERENCE, np.full((M, 7), np.nan), np.full(
+            (M, 6, 6), np.nan), np.full(M, np.nan), 0, 0.0, M - 1, True, failure))
     scores = {s.name: score(s, log, world.scoring.divergence_rad) for s in series}
     if not keep_tracks:
         return RunOutcome(run, scores)

@@ -146,6 +146,7 @@ def _consistency(good: list[ShipScores], steady: Array) -> dict[str, Any]:
             out[f"anees{suffix}"] = stats["value"]
             out[f"anees{suffix}_bounds_95"] = stats["band"]
             out[f"anees{suffix}_inside_95"] = stats["inside"]
+            out[f"anees{suffix}_above_95"] = stats["above"]
     nis = np.stack([s.nis for s in good])[:, steady]
     if np.isfinite(nis).any() and good[0].nis_dof:
         out["nis_mean_steady"] = float(np.nanmean(nis) / good[0].nis_dof)

@@ -23,10 +23,13 @@ from slam.render.tables import (
     MISSING,
     Column,
     Table,
+    band_note,
     consistency_columns,
     consistency_rule,
+    failure_notes,
     num,
     value,
+    wrap,
 )
 from slam.render.tables import plain_table as plain
 from slam.results import REFERENCE
@@ -273,11 +276,18 @@ def sections(s: dict[str, Any]) -> list[Section]:
 
 
 def text_table(s: dict[str, Any]) -> str:
-    """The results table as aligned plain text (for the terminal)."""
-    header = ["estimator", "pitch RMSE", "yaw RMSE", "roll out", "roll blind", "ANEES [band]",
+    """The results table as aligned plain text that fits the terminal (the ANEES band
+    and the full row names in the notes below it), then the failure reasons."""
+    header = ["estimator", "pitch", "yaw", "roll", "blind", "ANEES", "in band",
               "verdict", "H∞ fb", "ms/cycle", "diverged"]
-    rows = [[r[i] for i in (0, 2, 4, 5, 6, 7, 9, 11, 12, 13)] for r in result_rows(s)]
-    return plain(header, rows) + "\n(errors: RMSE in degrees over all epochs and runs)"
+    rows = [[r[i] for i in (0, 2, 4, 5, 6, 7, 8, 9, 11, 12, 13)] for r in result_rows(s)]
+    for row in rows:
+        row[0] = row[0].replace(" (true pitch, yaw)", "*").replace(" smoother", "")
+        row[5] = row[5].split(" [")[0]
+    notes = ["errors: RMSE in degrees over all epochs and runs; roll: outside the blind area, "
+             "blind: roll inside it; roll floor*: roll from the magnetometer with the true "
+             "pitch and yaw.", band_note(s), *failure_notes(s)]
+    return "\n".join([plain(header, rows), *(wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("spinning-projectile attitude campaign", sections, figures, text_table)

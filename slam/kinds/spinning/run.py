@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 import slam.kinds.spinning.sweep as sw
 from estimators import wrap_angle
+from slam.failures import run_reference
 from slam.kinds.spinning.models import (
     Models,
     RunFacts,
@@ -42,7 +43,7 @@ from slam.kinds.spinning.models import (
 from slam.kinds.spinning.simulate import SpinLog, sim_config, simulate
 from slam.kinds.spinning.truth import blind_area, radial_blind, roll_from_field, trajectory
 from slam.kinds.spinning.world import SpinningWorld
-from slam.results import RunOutcome
+from slam.results import REFERENCE, RunOutcome
 from slam.scoring import nees_series
 
 Array = NDArray[np.float64]
@@ -120,8 +121,13 @@ def estimate(world: SpinningWorld, log: SpinLog, m: Models, filters: Sequence[st
     """Every filter, then the GTSAM smoother, on one log."""
     series = [run_filter(log, name, m) for name in filters]
     if reference:
-        series.append(smooth(log, m, world.field, world.gyro.rate_noise_rad_s_sqrt_hz,
-                             world.magnetometer.noise_nt))
+        ref, failure = run_reference(smooth, log, m, world.field,
+                                     world.gyro.rate_noise_rad_s_sqrt_hz,
+                                     world.magnetometer.noise_nt)
+        E = log.n_epochs  # a smoother failure: no estimate, diverged with its reason
+        series.append(ref or Series(name=REFERENCE, means=np.full((E, 2), np.nan),
+                                    covs=np.full((E, 2, 2), np.nan), nis=np.full(E, np.nan),
+                                    time_s=0.0, cycles=E - 1, diverged=True, failure=failure))
     return series
 
 
@@ -148,7 +154,8 @@ def run_once(world: SpinningWorld, run: int, seed_seq: np.random.SeedSequence,
     truth = np.column_stack([log.alpha, log.beta, log.gamma]) if keep_tracks else None
     times = np.array(log.times) if keep_tracks else None
     detected = radial_blind(world.field, log.mag, world.scoring.blind_area_rad)
-    prior_z = (m.x0 - log.truth[0]) / np.sqrt(np.diag(m.P0))
+    sd = np.sqrt(np.diag(m.P0))  # 0 for a prior known exactly: its draw is 0 too
+    prior_z = np.divide(m.x0 - log.truth[0], sd, out=np.zeros_like(sd), where=sd > 0)
     return SpinOutcome(run, scores, tracks, truth, None, times, sweep,  # type: ignore[arg-type]
                        floor, detected, prior_z)
 

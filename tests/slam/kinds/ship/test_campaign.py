@@ -60,7 +60,8 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
     report = (out / "report.md").read_text(encoding="utf-8")
     for title in ("## Results", "## Paper vs ours", "## Effects", "## Paired comparisons"):
         assert title in report
-    assert "ukf:additive" in res.output and "RMS yaw" in res.output
+    assert "ukf:additive" in res.output and "yaw ss′" in res.output
+    assert max(map(len, res.output.split("\n\n")[0].splitlines())) <= 100  # the table
     assert "| (a) | ukf:additive |" in ship_tables(s)
 
 
