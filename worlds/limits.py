@@ -67,6 +67,8 @@ def check_file(target: Traversable, error: Callable[[str], Exception],
             raise error("file not found") from None
         except OSError as exc:
             raise error(f"cannot read ({exc.strerror or exc})") from None
+        except ValueError:  # a NUL character in the path
+            raise error("is not a valid file name") from None
         if not stat.S_ISREG(st.st_mode):
             raise error("is not a regular file")
         size = st.st_size
