@@ -220,6 +220,8 @@ def main(argv: list[str] | None = None) -> int:
     report["wall_s"] = round(time.perf_counter() - t0, 1)  # and the recheck and probe
     failures = [o for o in outcomes if o.klass not in GOOD]
     report["failures"] = [o.record() for o in failures]
+    # a base that does not run unmodified makes its mutations meaningless: a failure too
+    report["bases_not_ok"] = {b: c for b, c in base_classes.items() if c != "ok"}
     if args.keep:
         for o in failures:
             keep_case(o, args.keep)

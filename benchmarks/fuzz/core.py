@@ -59,7 +59,9 @@ class Base:
 # --------------------------------------------------------------------------- bases
 
 def cheapen(doc: dict[str, Any]) -> dict[str, Any]:
-    """A copy of a world document that runs in seconds: one filter, attitude runs <= 40 s,
+    """A copy of a world document that runs in seconds: one filter (srckf if listed, the
+    paper's first where the world names a paper model, else the first listed), attitude
+    runs <= 40 s,
     planar worlds one loop (drone worlds keep theirs: with one loop the bundled drone
     worlds already fail in the smoother, which the fuzzing should find, not start from)."""
     doc = copy.deepcopy(doc)
@@ -68,8 +70,17 @@ def cheapen(doc: dict[str, Any]) -> dict[str, Any]:
         veh["loops"] = 1
     filt = doc.get("filters")
     if isinstance(filt, dict) and "names" in filt:
-        filt["names"] = ["srckf"]
-    if isinstance(doc.get("duration_s"), int | float) and doc["duration_s"] > 40:
+        names = filt["names"] if isinstance(filt["names"], list) else []
+        keep = "srckf" if "srckf" in names or not names else str(names[0])
+        paper = filt.get("paper_model")
+        if isinstance(paper, list) and paper:  # ship: paper_model must be among the names
+            keep = paper[0]
+            filt["paper_model"] = [keep]
+        if isinstance(filt.get("variants"), list):
+            filt["variants"] = [v for v in filt["variants"] if str(v).startswith(f"{keep}:")]
+        filt["names"] = [keep]
+    if (isinstance(doc.get("duration_s"), int | float) and doc["duration_s"] > 40
+            and "flight" not in doc):  # a flight plan is tied to its duration
         doc["duration_s"] = 40.0
         score = doc.get("scoring")
         if isinstance(score, dict) and score.get("steady_state_from_s", 0) > 20:

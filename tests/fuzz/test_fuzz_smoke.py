@@ -213,3 +213,16 @@ def test_log_mutators(log_lines: list[str], family: str, seed: int) -> None:
         assert isinstance(case, Case) and case.family == family and case.name
         assert (case.target is not None) != (case.data is not None)
         assert case.data != base
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).parents[2] / "worlds").glob("*.toml")),
+                         ids=lambda p: p.stem)
+def test_every_cheapened_base_is_a_valid_world(path: Path) -> None:
+    """The harness mutates cheapened bundled worlds: a base the validator refuses would
+    make every mutation of it a trivial rejection (as ship's once was)."""
+    from benchmarks.fuzz.core import cheapen
+    from slam.registry import world_from_dict
+
+    doc = cheapen(tomllib.loads(path.read_text(encoding="utf-8")))
+    w = world_from_dict(doc, name=path.stem, base=path.parent)
+    assert len(w.filters.names) == 1
