@@ -97,3 +97,24 @@ class CampaignResult:
     world: Any
     summary: dict[str, Any]
     outcomes: list[RunOutcome]
+
+
+@dataclass(frozen=True)
+class EstimateSeries:
+    """One attitude estimator's output at the update epochs (star sensor, vector
+    observations): means : (M, 7) ``[q, b]``; covs : (M, 6, 6) tangent covariances (NaN
+    where none);
+    nis : (M,) per update (NaN for the smoother); time_s : wall time of the predict +
+    update cycles (filters) or of the solve (smoother); cycles : predict + update pairs.
+    """
+
+    name: str
+    means: Array
+    covs: Array
+    nis: Array
+    nis_dof: int
+    time_s: float
+    cycles: int
+    diverged: bool = False
+    failure: str | None = None
+    extra_time_s: float = 0.0

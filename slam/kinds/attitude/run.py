@@ -69,7 +69,7 @@ from nav.quaternion import dcm_to_q
 from nav.spaces import UnitQuaternion
 from slam.failures import run_reference
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
-from slam.results import REFERENCE, RunOutcome
+from slam.results import REFERENCE, EstimateSeries, RunOutcome
 from slam.scoring import anees_stats, nees_series, per_epoch_anees
 
 Array = NDArray[np.float64]
@@ -139,27 +139,6 @@ def initial_belief(world, log: AttitudeLog) -> tuple[Array, Array]:
 
 
 # --------------------------------------------------------------------------- filtering
-
-@dataclass(frozen=True)
-class EstimateSeries:
-    """One estimator's output at the star epochs.
-
-    means : (M, 7) ``[q, b]``; covs : (M, 6, 6) tangent covariances (NaN where none);
-    nis : (M,) per update (NaN for the smoother); time_s : wall time of the predict +
-    update cycles (filters) or of the solve (smoother); cycles : predict + update pairs.
-    """
-
-    name: str
-    means: Array
-    covs: Array
-    nis: Array
-    nis_dof: int
-    time_s: float
-    cycles: int
-    diverged: bool = False
-    failure: str | None = None
-    extra_time_s: float = 0.0
-
 
 def run_filter(log: AttitudeLog, name: str, x0: Array, P0: Array, transition: Transition,
                measurement: Measurement) -> EstimateSeries:

@@ -31,9 +31,8 @@ import numpy as np
 
 from nav.quaternion import dcm_to_q
 from nav.strapdown import attitudes
-from slam.kinds.attitude.run import EstimateSeries
 from slam.kinds.ship.simulate import ShipLog
-from slam.results import REFERENCE
+from slam.results import REFERENCE, EstimateSeries
 
 Array = np.ndarray
 

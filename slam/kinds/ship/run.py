@@ -31,7 +31,6 @@ from estimators.loop import run_epochs
 from estimators.models import Belief
 from nav.euler import euler_zyx_to_q, q_to_euler_zyx
 from slam.failures import run_reference
-from slam.kinds.attitude.run import EstimateSeries
 from slam.kinds.ship.models import (
     Treatment,
     earth_rate_transition,
@@ -43,7 +42,7 @@ from slam.kinds.ship.reference import smooth_ship
 from slam.kinds.ship.scoring import paired_mse, score, summarize_scores
 from slam.kinds.ship.simulate import ShipLog, simulate_ship
 from slam.kinds.ship.world import ShipWorld
-from slam.results import REFERENCE, RunOutcome
+from slam.results import REFERENCE, EstimateSeries, RunOutcome
 
 Array = NDArray[np.float64]
 

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 from estimators import wrap_angle
 from nav.euler import euler_error_jacobian, q_to_euler_zyx
 from nav.spaces import UnitQuaternion
-from slam.kinds.attitude.run import EstimateSeries
 from slam.kinds.ship.simulate import ShipLog
+from slam.results import EstimateSeries
 from slam.scoring import anees_stats, nees_series
 
 Array = NDArray[np.float64]
