@@ -191,7 +191,11 @@ def pseudo_observation_model(B: ArrayLike, R_ref: ArrayLike, sigma: ArrayLike,
         Prior (predicted) attitude mean, where the noise and the projection are evaluated.
     P : array_like, shape (3, 3), optional
         Prior tangent covariance of the attitude (right perturbation); enters the noise
-        through the first-order ambient covariance :math:`\tfrac14\Xi P\Xi^\top`.
+        through the second moment of :math:`q = \hat q \otimes \mathrm{Exp}(\delta)`,
+        :math:`E[qq^\top] \approx (1 - \mathrm{tr}P/4)\,\hat q\hat q^\top +
+        \tfrac14\Xi P\Xi^\top` (eq. 15 needs :math:`P_X + \hat X\hat X^\top`; taking
+        :math:`\hat X = \hat q` would over-state it by :math:`\tfrac14\mathrm{tr}P\,
+        \hat q\hat q^\top`).
     index : int
         Where the quaternion starts in the state's ambient coordinates
         (``X[:, index:index + 4]``), e.g. 0 for a ``Product([UnitQuaternion(), ...])``.
@@ -212,8 +216,14 @@ def pseudo_observation_model(B: ArrayLike, R_ref: ArrayLike, sigma: ArrayLike,
     k = G.shape[0]
     q_hat = np.asarray(q_hat, dtype=np.float64)
     Xi = xi_matrix(q_hat)
-    Pq = None if P is None else 0.25 * Xi @ np.asarray(P, dtype=np.float64) @ Xi.T
-    Pv = pseudo_observation_noise(q_hat, Pq, sigma)
+    Pq, x = None, q_hat
+    if P is not None:
+        P = np.asarray(P, dtype=np.float64)
+        Pq = 0.25 * Xi @ P @ Xi.T
+        # E[q q^T] for q = q_hat ⊗ Exp(δ), δ ~ N(0, P), to second order is
+        # (1 - tr P / 4) q_hat q_hat^T + Pq: the mean shrinks along q_hat
+        x = np.sqrt(max(0.0, 1.0 - 0.25 * float(np.trace(P)))) * q_hat
+    Pv = pseudo_observation_noise(x, Pq, sigma)
     if project:
         T = Xi.T
         G = T @ G  # (k, 3, 4)

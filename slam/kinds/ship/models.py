@@ -57,7 +57,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators import Euclidean, Measurement, Noise, Product, Transition
+from estimators import Euclidean, Measurement, Product, Transition
 from estimators.models import Belief
 from nav.gyro import interval_transition
 from nav.observations import direction_measurement
@@ -119,21 +119,12 @@ def pseudo_observations(B: Array, refs: Array, sigmas: Array, q_hat: Array, P_at
     which a Kalman update does not see (eq. 8-9, noise by eq. 15-16 at the prior
     ``q_hat``, ``P_att``).
 
-    Second moment.  Eq. (15) needs :math:`E[qq^\top] = P_X + \hat X\hat X^\top`.  For
-    :math:`q = \hat q \otimes \mathrm{Exp}(\delta)`, :math:`\delta \sim N(0, P)`, it is
-    :math:`(1 - \mathrm{tr}P/4)\,\hat q\hat q^\top + \tfrac14 \Xi P \Xi^\top` to second order
-    (the mean shrinks, :math:`E[q] \approx (1 - \mathrm{tr}P/8)\hat q`); the library model
-    takes :math:`\hat X = \hat q` (unit) with :math:`P_X = \tfrac14\Xi P\Xi^\top`, which
-    over-states it by :math:`\tfrac14\mathrm{tr}P\,\hat q\hat q^\top`.  After the projection
-    :math:`T = \Xi(\hat q)^\top` the whitened noise of each vector is exactly
-    :math:`\tfrac14 I - P/16 + (\mathrm{tr}P/16) I` from the library and
-    :math:`\tfrac14 I - P/16` with the right moment, so :math:`(\mathrm{tr}P/16) I` is taken
-    off each block here (1.9 % of the noise at the initial prior; a χ² test detects it).
+    The noise uses the second moment of the prior's quaternion (the library's model):
+    after the projection :math:`T = \Xi(\hat q)^\top` each whitened block is
+    :math:`\tfrac14 I - P/16`.
     """
     scale = 1.0 / np.asarray(sigmas, dtype=np.float64)[:, None]
-    model = pseudo_observation_model(B * scale, refs * scale, 1.0, q_hat, P_att)
-    excess = np.trace(np.asarray(P_att, dtype=np.float64)) / 16.0
-    return replace(model, noise=Noise.from_cov(model.noise.cov - excess * np.eye(model.noise.dim)))
+    return pseudo_observation_model(B * scale, refs * scale, 1.0, q_hat, P_att)
 
 
 @dataclass(frozen=True)

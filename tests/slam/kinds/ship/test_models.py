@@ -69,8 +69,11 @@ def test_whitened_stack_equals_the_per_vector_models() -> None:
         one = pseudo_observation_model(b, r, s, q_hat, P)
         rows = slice(3 * k, 3 * k + 3)
         np.testing.assert_allclose(m.h(X)[0, rows], one.h(X)[0] / s, rtol=1e-13, atol=1e-16)
-        corrected = one.noise.cov / s**2 - np.trace(P) / 16.0 * np.eye(3)  # 2nd moment
-        np.testing.assert_allclose(m.noise.cov[rows, rows], corrected, rtol=1e-12, atol=1e-16)
+        np.testing.assert_allclose(m.noise.cov[rows, rows], one.noise.cov / s**2, rtol=1e-12,
+                                   atol=1e-16)
+        # the whitened block in closed form (the prior quaternion's second moment)
+        np.testing.assert_allclose(m.noise.cov[rows, rows], 0.25 * np.eye(3) - P / 16.0,
+                                   rtol=1e-12, atol=1e-16)
 
 
 def _whitened_noise(q_hat: np.ndarray, P: np.ndarray, n: int, rng) -> np.ndarray:
@@ -84,8 +87,9 @@ def _whitened_noise(q_hat: np.ndarray, P: np.ndarray, n: int, rng) -> np.ndarray
 
 def test_pseudo_observation_noise_passes_a_chi_square_test() -> None:
     """At the filters' initial prior (2°, 4°, 15°): the mean of vᵀR⁻¹v over n draws lies in
-    the two-sided 99.9 % band of χ²(6n)/n; the library's own second moment (the unit
-    q̂ as the ambient mean) over-states R by tr P/16 per axis and falls below the band."""
+    the two-sided 99.9 % band of χ²(6n)/n; taking the unit q̂ as the ambient mean (the
+    library's model before it used the second moment) over-states R by tr P/16 per axis
+    and falls below the band."""
     w, log = _log()
     x0, P0 = initial_belief(w, log)
     rng = np.random.default_rng(22)
@@ -98,8 +102,8 @@ def test_pseudo_observation_noise_passes_a_chi_square_test() -> None:
         return float(np.mean(np.einsum("ni,ni->n", v, np.linalg.solve(R, v.T).T)))
 
     assert lo < mean_d2(m.noise.cov) < hi
-    library = m.noise.cov + np.trace(P0[:3, :3]) / 16.0 * np.eye(6)
-    assert mean_d2(library) < lo
+    first_order = m.noise.cov + np.trace(P0[:3, :3]) / 16.0 * np.eye(6)
+    assert mean_d2(first_order) < lo
 
 
 def test_process_model_is_the_strapdown_attitude_with_the_earth_rate() -> None:
