@@ -273,7 +273,9 @@ def test_a_kind_defined_in_a_test_runs_through_the_cli(tracker_kind, tmp_path):
     assert "## Tracking results" in md and "## Figures" not in md
     assert re.search(r"^\| srckf \| \d+\.\d{3} \|", md, re.M)
     html = (out / "report.html").read_text(encoding="utf-8")
-    assert "<h2>Tracking results</h2>" in html and html.count("<tr>") == 1 + 2
+    results, _, provenance = html.partition("<h2>Provenance</h2>")
+    assert "<h2>Tracking results</h2>" in results and results.count("<tr>") == 1 + 2
+    assert "<td>command line</td>" in provenance
 
 
 def test_malformed_world_of_the_plugin_kind_exits_2_naming_the_key(tracker_kind, tmp_path):
