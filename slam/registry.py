@@ -12,7 +12,7 @@ import os
 from typing import Any
 
 from slam.kind import Kind
-from slam.kinds import attitude, drone, planar, recorded, ship, spinning
+from slam.kinds import attitude, drone, fixed_wing, planar, recorded, ship, spinning
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
 
@@ -26,7 +26,8 @@ def register(kind: Kind) -> Kind:
     return kind
 
 
-for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND):
+for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
+           fixed_wing.KIND):
     register(_k)
 
 

@@ -1,0 +1,241 @@
+r"""Fixed-wing UAV ([Fixed-wing EA-UKF]): one Monte Carlo run and the campaign summary.
+
+Every run simulates the log once (:mod:`slam.kinds.fixed_wing.simulate`), draws the
+initial errors from the initial covariances, and runs on it
+
+* the EA filters ``ea-<name>`` (:mod:`slam.kinds.fixed_wing.ea`): one epoch per
+  accelerometer/magnetometer update - a prediction through the epoch's mean gyro
+  reading, then the update with the accelerometer/magnetometer angles;
+* the INS filters ``ins-<name>`` (:mod:`slam.kinds.fixed_wing.ins`): one epoch per GNSS
+  fix - the mechanisation through the epoch's IMU samples, then the GNSS update (the
+  first fix, at t = 0, updates the prior);
+* the GTSAM smoother (:mod:`slam.kinds.fixed_wing.reference`) on the IMU and GNSS data.
+
+Every filter comes from :func:`estimators.make_filter` and runs in the one loop
+(:func:`estimators.loop.run_epochs`); numerical failures are counted divergences.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from estimators import make_filter
+from estimators.loop import run_epochs
+from estimators.models import Belief
+from nav.euler import q_to_euler_zyx
+from nav.quaternion import qexp, qmul
+from slam.failures import run_reference
+from slam.kinds.fixed_wing.ea import ANGLES, accel_mag_angles, ea_measurement, ea_transition
+from slam.kinds.fixed_wing.ea import SPACE as EA_SPACE
+from slam.kinds.fixed_wing.ins import SPACE as INS_SPACE
+from slam.kinds.fixed_wing.ins import InsNoise, gnss_measurement, ins_transition
+from slam.kinds.fixed_wing.scoring import (
+    DEG,
+    FwScores,
+    euler_errors,
+    final_check,
+    nav_nees,
+    summarize_scores,
+)
+from slam.kinds.fixed_wing.simulate import FixedWingLog, simulate
+from slam.kinds.fixed_wing.truth_stats import (
+    accelerometer_angle_errors,
+    flight_facts,
+    segment_masks,
+)
+from slam.kinds.fixed_wing.world import FixedWingWorld
+from slam.results import REFERENCE, RunOutcome
+from slam.scoring import nees_series
+
+Array = NDArray[np.float64]
+#: σ floor of the Markov gyro drift's prior (rad/s, 1e-3 °/h): it starts at exactly 0.
+DRIFT_PRIOR_FLOOR = 1e-3 * DEG / 3600.0
+
+
+@dataclass
+class _Recorder:
+    means: Array
+    covs: Array
+
+    def __call__(self, j: int, belief: Belief) -> None:
+        self.means[j] = belief.mean
+        self.covs[j] = belief.cov
+
+
+def block_means(x: Array, n: int) -> Array:
+    """Means of consecutive blocks of ``n`` rows (the epoch averages)."""
+    return x.reshape(-1, n, x.shape[-1]).mean(axis=1)
+
+
+def ea_observations(log: FixedWingLog) -> tuple[Array, Array]:
+    """Per EA epoch ``j >= 1``: the mean gyro reading over the epoch (J, 3) and the
+    accelerometer/magnetometer angles (J, 3) (row 0 is unused, NaN)."""
+    n = log.n_ea
+    gyro = np.vstack([np.full((1, 3), np.nan), block_means(log.gyro, n)])
+    f = block_means(log.accel, n)
+    z = np.vstack([np.full((1, 3), np.nan), accel_mag_angles(f, log.mag[1:], log.field_n)])
+    return gyro, z
+
+
+def ea_prior(log: FixedWingLog, rng: np.random.Generator) -> tuple[Array, Array]:
+    """EA ``(x0, P0)``: truth angles plus a draw from the initial σ, zero bias."""
+    ea = log.world.ea
+    sig = np.concatenate([ea.initial_sigma_rad, np.full(3, ea.initial_bias_sigma_rad_s)])
+    x0 = np.concatenate([q_to_euler_zyx(log.traj.q[0]), np.zeros(3)])
+    x0[:3] += rng.standard_normal(3) * sig[:3]
+    return EA_SPACE.retract(x0, np.zeros(6)), np.diag(sig**2)
+
+
+def ins_prior(log: FixedWingLog, rng: np.random.Generator) -> tuple[Array, Array]:
+    """INS ``(x0, P0)``: truth plus draws from the initial σ, zero drifts."""
+    w = log.world
+    sig = np.concatenate([np.full(3, w.ins.initial_position_sigma_m),
+                          np.full(3, w.ins.initial_velocity_sigma_mps),
+                          w.ins.initial_attitude_sigma_rad,
+                          np.full(3, w.imu.gyro_bias_sigma_rad_s),
+                          np.full(3, DRIFT_PRIOR_FLOOR),
+                          np.full(3, w.imu.accel_drift_sigma_mps2)])
+    sig = np.maximum(sig, DRIFT_PRIOR_FLOOR)
+    d = rng.standard_normal(9) * sig[:9]
+    tr = log.traj
+    x0 = np.concatenate([tr.p[0] + d[:3], tr.v[0] + d[3:6], qmul(tr.q[0], qexp(d[6:9])),
+                         np.zeros(9)])
+    return x0, np.diag(sig**2)
+
+
+def ins_noise(world: FixedWingWorld) -> InsNoise:
+    i = world.imu
+    return InsNoise(i.gyro_arw_rad_sqrt_s, i.accel_vrw_mps_sqrt_s, i.gyro_drift_rw_rad_s_sqrt_s,
+                    i.accel_drift_rw_mps2_sqrt_s, i.gyro_drift_time_s, i.accel_drift_time_s)
+
+
+
+
+def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
+    """EA filter ``name`` (``ea-<filter>``) over the log (module docstring)."""
+    w = log.world
+    flt = make_filter(name.removeprefix("ea-"))
+    gyro, z = ea_observations(log)
+    J, tau = z.shape[0], log.n_ea * log.dt
+    meas = ea_measurement(w.ea.roll_pitch_sigma_rad, w.ea.heading_sigma_rad)
+    rec = _Recorder(np.full((J, 6), np.nan), np.full((J, 6, 6), np.nan))
+
+    def transition(j: int, b: Belief):
+        return ea_transition(b.mean, tau, w.imu.gyro_arw_rad_sqrt_s,
+                             w.imu.gyro_drift_rw_rad_s_sqrt_s, log.earth_rate), gyro[j]
+
+    def correct(j: int, b: Belief):
+        post, inn = flt.update(b, meas, z[j])
+        return post, [inn]
+
+    out = run_epochs(flt, flt.init(x0, EA_SPACE, cov=P0), J, transition=transition,
+                     correct=correct, record=rec)
+    samples = np.arange(J) * log.n_ea
+    truth = q_to_euler_zyx(log.traj.q[samples])
+    err = ANGLES.local(truth, rec.means[:, :3])
+    sig = np.sqrt(np.diagonal(rec.covs[:, :3, :3], axis1=1, axis2=2))
+    nees = nees_series(-err, rec.covs[:, :3, :3])
+    div, why = final_check(err, out.diverged, out.failure, w.scoring.divergence_rad)
+    return FwScores(name, samples * log.dt, err, sig, None, None,
+                    *segment_masks(log.world, samples), nees, 3, out.nis, 3, out.time_s, J - 1,
+                    div, why)
+
+
+def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
+    """INS filter ``name`` (``ins-<filter>``) over the log (module docstring)."""
+    w = log.world
+    flt = make_filter(name.removeprefix("ins-"))
+    n, G = log.n_gnss, log.gnss_p.shape[0]
+    noise = ins_noise(w)
+    meas = gnss_measurement(w.gnss.horizontal_sigma_m, w.gnss.vertical_sigma_m,
+                            w.gnss.velocity_sigma_mps)
+    z = np.hstack([log.gnss_p, log.gnss_v])
+    rec = _Recorder(np.full((G, 19), np.nan), np.full((G, 18, 18), np.nan))
+
+    def transition(i: int, b: Belief):
+        sl = slice((i - 1) * n, i * n)
+        return ins_transition(b.mean, log.gyro[sl], log.accel[sl], log.dt, log.gravity,
+                              log.earth_rate, noise), None
+
+    def correct(i: int, b: Belief):
+        post, inn = flt.update(b, meas, z[i])
+        return post, [inn]
+
+    out = run_epochs(flt, flt.init(x0, INS_SPACE, cov=P0), G, transition=transition,
+                     correct=correct, record=rec, correct_first=True)
+    return nav_scores(log, name, rec.means, rec.covs, out.nis, out.time_s, G - 1,
+                      out.diverged, out.failure)
+
+
+def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Array,
+               time_s: float, cycles: int, diverged: bool, failure: str | None) -> FwScores:
+    """Scores of an INS-state series ``means`` (G, 19), ``covs`` (G, ≥9, ≥9) at the GNSS
+    epochs (the INS filters and the smoother)."""
+    samples = np.arange(means.shape[0]) * log.n_gnss
+    tr = log.traj
+    qh = means[:, 6:10]
+    err, sig = euler_errors(qh, covs[:, 6:9, 6:9], tr.q[samples])
+    ep, ev = means[:, 0:3] - tr.p[samples], means[:, 3:6] - tr.v[samples]
+    nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
+    div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)
+    return FwScores(name, samples * log.dt, err, sig, ep, ev, *segment_masks(log.world, samples),
+                    nees, 9, nis, 6, time_s, cycles, div, why)
+
+
+def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:
+    from slam.kinds.fixed_wing.reference import smooth
+
+    est, failure = run_reference(smooth, log, x0, P0)
+    if est is None:
+        G = log.gnss_p.shape[0]
+        nan = np.full((G, 19), np.nan)
+        return nav_scores(log, REFERENCE, nan, np.full((G, 9, 9), np.nan), np.zeros(0), 0.0,
+                          G - 1, True, failure)
+    means, covs, time_s = est
+    return nav_scores(log, REFERENCE, means, covs, np.zeros(0), time_s, means.shape[0] - 1,
+                      False, None)
+
+
+def run_once(world: FixedWingWorld, run: int, seed_seq: np.random.SeedSequence,
+             filters: Sequence[str], keep_tracks: bool = False, reference: bool = True
+             ) -> RunOutcome:
+    """Simulate run ``run`` from its own seed; score every estimator and the smoother."""
+    rng = np.random.default_rng(seed_seq)
+    log = simulate(world, rng)
+    ea0, ins0 = ea_prior(log, rng), ins_prior(log, rng)
+    scores: dict[str, FwScores] = {}
+    for name in filters:
+        scores[name] = (run_ea(log, name, *ea0) if name.startswith("ea-")
+                        else run_ins(log, name, *ins0))
+    if reference:
+        scores[REFERENCE] = _reference(log, *ins0)
+    times = np.arange(log.gnss_p.shape[0]) * log.n_gnss * log.dt
+    return RunOutcome(run, scores, times=times)  # type: ignore[arg-type]
+
+
+def summarize(world: FixedWingWorld, outcomes: list[RunOutcome], filters: list[str], runs: int,
+              seed: int) -> dict[str, Any]:
+    """The ``summary.json`` dict of a fixed-wing campaign."""
+
+    def entry(name: str) -> dict[str, Any]:
+        return summarize_scores([o.scores[name] for o in outcomes if name in o.scores])
+
+    reference = {}
+    if any(REFERENCE in o.scores for o in outcomes):
+        reference = {REFERENCE: entry(REFERENCE)}
+    return {
+        "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
+        "duration_s": world.duration_s, "imu_rate_hz": world.imu.rate_hz,
+        "ea_rate_hz": world.ea.update_rate_hz, "gnss_rate_hz": world.gnss.rate_hz,
+        "euler_sequence": "Z-Y-X (yaw, pitch, roll); body forward-left-up, navigation ENU",
+        "flight": flight_facts(world),
+        "accelerometer_angle_error_deg": accelerometer_angle_errors(world),
+        "filters": {n: entry(n) for n in filters},
+        "reference": reference,
+        "paper": world.paper,
+    }

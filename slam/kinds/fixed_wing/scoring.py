@@ -1,0 +1,162 @@
+r"""Scores of the fixed-wing campaign: per-run reductions and their Monte Carlo summaries.
+
+Errors are estimate minus truth at each estimator's own epochs (EA: the accelerometer/
+magnetometer epochs; INS and the smoother: the GNSS epochs): Z-Y-X roll, pitch, heading
+(wrapped; heading = yaw from East, the error is the same from North), and for the INS
+filters and the smoother east/north/up position and velocity.  [Fixed-wing EA-UKF]
+Table 1 reports *mean errors*; we read them as the mean absolute error over the epochs
+and the runs (``table1``).  Consistency: NEES of ``[δp, δv, δθ]`` (9 dof) for the INS
+filters and the smoother, of the Euler angles (3 dof) for the EA filters, against the
+two-sided 95 % χ² band of the run average (:func:`slam.scoring.anees_stats`).  Turn
+epochs: the true heading rate above ``[scoring] turn_rate_deg_s``; accelerating epochs:
+outside turns, the true acceleration above ``accel_mps2``; the rest is steady flight.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from estimators import wrap_angle
+from nav.euler import euler_error_jacobian, q_to_euler_zyx
+from nav.spaces import UnitQuaternion
+from slam.scoring import anees_stats, nees_series
+
+Array = NDArray[np.float64]
+DEG = math.pi / 180.0
+AXES = ("roll", "pitch", "heading")
+_QUAT = UnitQuaternion()
+
+
+@dataclass(frozen=True)
+class FwScores:
+    """One estimator on one run, reduced (radians, m, m/s; at its epochs ``times``).
+
+    err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
+    turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
+    nis : per update (``nis_dof`` each); time_s over ``cycles`` predict + update cycles
+    (smoother: its solve).
+    """
+
+    name: str
+    times: Array
+    err_att: Array
+    sig_att: Array
+    err_pos: Array | None
+    err_vel: Array | None
+    turn: Array
+    accel: Array
+    nees: Array
+    nees_dof: int
+    nis: Array
+    nis_dof: int
+    time_s: float
+    cycles: int
+    diverged: bool = False
+    failure: str | None = None
+
+
+def euler_errors(qh: Array, P_att: Array, q_true: Array) -> tuple[Array, Array]:
+    """``(err, sigma)`` (M, 3) of the Z-Y-X angles of ``qh`` against ``q_true``; NaN rows
+    where ``qh`` is not finite; ``P_att`` is the body-frame attitude covariance."""
+    err = np.full(q_true.shape[:-1] + (3,), np.nan)
+    sig = np.full_like(err, np.nan)
+    ok = np.all(np.isfinite(qh), axis=1)
+    if ok.any():
+        err[ok] = wrap_angle(q_to_euler_zyx(qh[ok]) - q_to_euler_zyx(q_true[ok]))
+        J = euler_error_jacobian(qh[ok], q_to_euler_zyx)
+        with np.errstate(invalid="ignore"):
+            C = J @ P_att[ok] @ np.swapaxes(J, -1, -2)
+            sig[ok] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))
+    return err, sig
+
+
+def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:
+    """NEES of the tangent error ``truth ⊟ estimate`` = ``[-δp, -δv, Log(q̂* ⊗ q)]``
+    (9 dof; ``p_err``, ``v_err`` are estimate minus truth)."""
+    body = np.full(p_err.shape, np.nan)
+    ok = np.all(np.isfinite(qh), axis=1)
+    body[ok] = _QUAT.local(qh[ok], q_true[ok])
+    return nees_series(np.hstack([-p_err, -v_err, body]), cov9)
+
+
+def final_check(err_att: Array, diverged: bool, failure: str | None, limit: float
+                ) -> tuple[bool, str | None]:
+    """A run whose last attitude error exceeds ``limit`` counts as diverged."""
+    last = float(np.max(np.abs(err_att[-1]))) if np.all(np.isfinite(err_att[-1])) else math.inf
+    if diverged or last <= limit:
+        return diverged, failure
+    return True, (f"final attitude error {math.degrees(last):.3g} deg exceeds "
+                  f"{math.degrees(limit):.3g} deg")
+
+
+def _rms(x: Array) -> float | None:
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x * x))) if x.size else None
+
+
+def _mean_abs(x: Array) -> float | None:
+    x = x[np.isfinite(x)]
+    return float(np.mean(np.abs(x))) if x.size else None
+
+
+def table1(good: list[FwScores]) -> dict[str, float | None]:
+    """The paper's Table 1 columns: mean |error| over epochs and runs."""
+    att = np.stack([s.err_att for s in good])
+    out: dict[str, float | None] = {"heading_deg": _mean_abs(att[..., 2] / DEG)}
+    if good[0].err_pos is not None:
+        p = np.stack([s.err_pos for s in good])
+        v = np.stack([s.err_vel for s in good])
+        out.update(longitude_m=_mean_abs(p[..., 0]), latitude_m=_mean_abs(p[..., 1]),
+                   east_velocity_mps=_mean_abs(v[..., 0]),
+                   north_velocity_mps=_mean_abs(v[..., 1]))
+    return out
+
+
+def turn_split(good: list[FwScores]) -> dict[str, dict[str, float | None]]:
+    """RMS roll / pitch / heading error (deg) in turns, accelerating outside turns and in
+    steady flight."""
+    att = np.stack([s.err_att for s in good]) / DEG
+    masks = {"turns": good[0].turn, "accelerating": good[0].accel,
+             "steady": ~good[0].turn & ~good[0].accel}
+    return {seg: {a: _rms(att[:, mask, i]) for i, a in enumerate(AXES)}
+            for seg, mask in masks.items()}
+
+
+def _consistency(good: list[FwScores]) -> dict[str, Any]:
+    stats = anees_stats(np.stack([s.nees for s in good]), good[0].nees_dof)
+    out: dict[str, Any] = {"nees_dof": good[0].nees_dof}
+    if stats:
+        out.update(anees=stats["value"], anees_bounds_95=stats["band"],
+                   anees_steps_inside_95=stats["inside"], anees_steps_above_95=stats["above"])
+    nis = np.concatenate([s.nis for s in good])
+    if nis.size and good[0].nis_dof:
+        out["nis_mean"] = float(np.mean(nis) / good[0].nis_dof)
+    return out
+
+
+def summarize_scores(scores: list[FwScores]) -> dict[str, Any]:
+    """Monte Carlo summary of one estimator; diverged runs are counted with their
+    reasons and left out of every statistic."""
+    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
+    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
+    if bad:
+        out["failures"] = sorted({s.failure or "" for s in bad})
+    if not good:
+        return out
+    att = np.stack([s.err_att for s in good]) / DEG
+    out["att_rmse_deg"] = {a: _rms(att[..., i]) for i, a in enumerate(AXES)}
+    out["table1"] = table1(good)
+    out["turn_split_rmse_deg"] = turn_split(good)
+    if good[0].err_pos is not None:
+        p = np.stack([s.err_pos for s in good])
+        out["pos_rmse_m"] = _rms(np.linalg.norm(p, axis=-1))
+    out.update(_consistency(good))
+    cycles = sum(s.cycles for s in good)
+    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
+    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    return out

@@ -1,0 +1,341 @@
+"""The ``fixed-wing`` world: a fixed-wing UAV's attitude from an Euler-angle filter with
+accelerometer + magnetometer (EA) and from an INS/unit-quaternion filter with GNSS (INS)
+([Fixed-wing EA-UKF] §5-6, Table 1).
+
+Units are spelled in every key and converted to SI radians on load.  File layout::
+
+    kind = "fixed-wing"
+    description = "one line"
+    runs = 15                        # Monte Carlo runs (the paper's fifteen)
+    seed = 0
+    duration_s = 500.0
+    [site]        latitude_deg, longitude_deg, height_m (start of the flight)
+    [flight]      start_speed_mps, start_heading_deg (from East, counter-clockwise),
+                  start_climb_deg, manoeuvre_start_s, manoeuvre_ramp_s and the targets
+                  each manoeuvre ramps to: turn_rate_deg_s, climb_deg, speed_mps
+    [imu]         rate_hz, earth_rate, gyro_bias_sigma_deg_h, gyro_drift_rw_deg_h_sqrt_h,
+                  gyro_drift_time_s, gyro_arw_deg_sqrt_h, accel_drift_sigma_mg,
+                  accel_drift_rw_mg_sqrt_h, accel_drift_time_s, accel_vrw_mps_sqrt_h
+    [magnetometer] field_ut, declination_deg, inclination_deg, sigma_ut
+    [gnss]        rate_hz, horizontal_sigma_m, vertical_sigma_m, velocity_sigma_mps
+    [ea]          update_rate_hz, roll_pitch_sigma_deg, heading_sigma_deg (what the EA
+                  filters assume of the accelerometer / magnetometer angles),
+                  initial_sigma_deg, initial_bias_sigma_deg_h
+    [ins]         initial_attitude_sigma_deg, initial_velocity_sigma_mps,
+                  initial_position_sigma_m
+    [filters]     names ("ea-<filter>" / "ins-<filter>")
+    [scoring]     turn_rate_deg_s (a turn: |heading rate| above it), accel_mps2 (an
+                  accelerating epoch outside turns), divergence_deg
+    [paper]       free-form: the paper's Table 1, passed through to summary.json
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
+from typing import Any
+
+import numpy as np
+
+import worlds.schema as ws
+from worlds import limits
+
+KIND = "fixed-wing"
+DEG = math.pi / 180.0
+DEG_H = DEG / 3600.0
+DEG_SQRT_H = DEG / 60.0
+DEG_H_SQRT_H = DEG / 3600.0 / 60.0
+MG = 9.80665e-3
+MG_SQRT_H = MG / 60.0
+MPS_SQRT_H = 1.0 / 60.0
+
+EA_FILTERS = ("ukf", "ckf", "srckf", "ekf")
+INS_FILTERS = ("ckf", "ukf", "srckf", "ekf")
+FILTERS = tuple(f"ea-{n}" for n in EA_FILTERS) + tuple(f"ins-{n}" for n in INS_FILTERS)
+"""Every estimator name a fixed-wing world can run: ``ea-*`` on the Euler-angle model,
+``ins-*`` on the INS/unit-quaternion model."""
+
+
+class NumberList(ws.Field):
+    """A non-empty list of numbers, each in ``interval``, multiplied by ``scale``."""
+
+    def __init__(self, interval: ws.Interval, scale: float = 1.0, max_len: int = 1000) -> None:
+        self.interval, self.scale, self.max_len = interval, scale, max_len
+
+    def parse(self, value: Any, where: ws.Where) -> tuple[float, ...]:
+        if not isinstance(value, list) or not 0 < len(value) <= self.max_len:
+            raise where.error(f"must be a list of 1 to {self.max_len} numbers", value)
+        for i, v in enumerate(value):
+            if not isinstance(v, int | float) or isinstance(v, bool):
+                raise where.item(i).error("must be a number", v)
+            if v not in self.interval:
+                raise where.item(i).error(f"must be in {self.interval}", v)
+        return tuple(float(v) * self.scale for v in value)
+
+
+@dataclass(frozen=True)
+class SiteSpec:
+    """Start of the flight (radians, metres)."""
+
+    latitude_rad: float
+    longitude_rad: float
+    height_m: float
+
+
+@dataclass(frozen=True)
+class FlightSpec:
+    """The smooth flight: start state and manoeuvres; manoeuvre ``i`` ramps turn rate,
+    flight-path angle and speed from their previous values to its targets over
+    ``ramp_s[i]`` seconds from ``start_s[i]`` (radians, rad/s, m/s)."""
+
+    start_speed_mps: float
+    start_heading_rad: float
+    start_climb_rad: float
+    start_s: tuple[float, ...]
+    ramp_s: tuple[float, ...]
+    turn_rate_rad_s: tuple[float, ...]
+    climb_rad: tuple[float, ...]
+    speed_mps: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ImuSpec:
+    """MEMS IMU (SI): gyro constant drift σ (drawn per run), first-order Markov gyro
+    drift (driving density, correlation time), white noise; accelerometer Markov drift
+    (initial σ, driving density, correlation time) and white noise."""
+
+    rate_hz: float
+    earth_rate: bool
+    gyro_bias_sigma_rad_s: float
+    gyro_drift_rw_rad_s_sqrt_s: float
+    gyro_drift_time_s: float
+    gyro_arw_rad_sqrt_s: float
+    accel_drift_sigma_mps2: float
+    accel_drift_rw_mps2_sqrt_s: float
+    accel_drift_time_s: float
+    accel_vrw_mps_sqrt_s: float
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+@dataclass(frozen=True)
+class MagSpec:
+    """Geomagnetic field (µT, radians) and the magnetometer's white noise per axis (µT)."""
+
+    field_ut: float
+    declination_rad: float
+    inclination_rad: float
+    sigma_ut: float
+
+
+@dataclass(frozen=True)
+class GnssSpec:
+    """GNSS position (m) and velocity (m/s) fixes, white noise per axis."""
+
+    rate_hz: float
+    horizontal_sigma_m: float
+    vertical_sigma_m: float
+    velocity_sigma_mps: float
+
+
+@dataclass(frozen=True)
+class EaSpec:
+    """The Euler-angle filters: update rate and assumed measurement σ (rad), initial σ."""
+
+    update_rate_hz: float
+    roll_pitch_sigma_rad: float
+    heading_sigma_rad: float
+    initial_sigma_rad: tuple[float, float, float]
+    initial_bias_sigma_rad_s: float
+
+
+@dataclass(frozen=True)
+class InsSpec:
+    """The INS filters' initial σ (rad, m/s, m); drift σ come from ``[imu]``."""
+
+    initial_attitude_sigma_rad: tuple[float, float, float]
+    initial_velocity_sigma_mps: float
+    initial_position_sigma_m: float
+
+
+@dataclass(frozen=True)
+class FilterSpec:
+    names: tuple[str, ...]
+
+    @property
+    def mode(self) -> str:
+        """Always ``"joint"`` (read by the command line for every kind)."""
+        return "joint"
+
+
+@dataclass(frozen=True)
+class ScoringSpec:
+    """A turn is an epoch whose true heading rate exceeds ``turn_rate_rad_s``; an
+    accelerating epoch one outside turns whose true acceleration exceeds ``accel_mps2``
+    (speed changes, pull-ups); a run whose final attitude error exceeds ``divergence_rad``
+    counts as diverged."""
+
+    turn_rate_rad_s: float
+    accel_mps2: float
+    divergence_rad: float
+
+
+@dataclass(frozen=True)
+class FixedWingWorld:
+    """A validated fixed-wing world.  ``paper`` is free-form (JSON-compatible)."""
+
+    name: str
+    kind: str
+    description: str
+    runs: int
+    duration_s: float
+    site: SiteSpec
+    flight: FlightSpec
+    imu: ImuSpec
+    magnetometer: MagSpec
+    gnss: GnssSpec
+    ea: EaSpec
+    ins: InsSpec
+    filters: FilterSpec
+    scoring: ScoringSpec
+    source: str = ""
+    seed: int = 0
+    paper: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        """IMU intervals of the flight."""
+        return round(self.duration_s * self.imu.rate_hz)
+
+
+SPEED = ws.Interval(5.0, 100.0)
+SCHEMA = {
+    **ws.header(KIND),
+    "duration_s": ws.Number(ws.positive(7_200.0)),
+    "site": ws.Section({
+        "latitude_deg": ws.Number(ws.Interval(-80.0, 80.0), scale=DEG).to("latitude_rad"),
+        "longitude_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("longitude_rad"),
+        "height_m": ws.Number(ws.Interval(-400.0, 10_000.0)),
+    }, into=SiteSpec),
+    "flight": ws.Section({
+        "start_speed_mps": ws.Number(SPEED),
+        "start_heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
+        .to("start_heading_rad"),
+        "start_climb_deg": ws.Number(ws.Interval(-30.0, 30.0), scale=DEG).to("start_climb_rad"),
+        "manoeuvre_start_s": NumberList(ws.Interval(0.0, 7_200.0)).to("start_s"),
+        "manoeuvre_ramp_s": NumberList(ws.Interval(0.5, 600.0)).to("ramp_s"),
+        "turn_rate_deg_s": NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("turn_rate_rad_s"),
+        "climb_deg": NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("climb_rad"),
+        "speed_mps": NumberList(SPEED),
+    }, into=FlightSpec),
+    "imu": ws.Section({
+        "rate_hz": ws.Number(ws.Interval(10.0, 1_000.0)),
+        "earth_rate": ws.Boolean(default=True),
+        "gyro_bias_sigma_deg_h": ws.Number(ws.Interval(0.0, 3_600.0), scale=DEG_H)
+        .to("gyro_bias_sigma_rad_s"),
+        "gyro_drift_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 1_000.0), scale=DEG_H_SQRT_H)
+        .to("gyro_drift_rw_rad_s_sqrt_s"),
+        "gyro_drift_time_s": ws.Number(ws.Interval(1.0, 1e6)),
+        "gyro_arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_SQRT_H)
+        .to("gyro_arw_rad_sqrt_s"),
+        "accel_drift_sigma_mg": ws.Number(ws.Interval(0.0, 100.0), scale=MG)
+        .to("accel_drift_sigma_mps2"),
+        "accel_drift_rw_mg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=MG_SQRT_H)
+        .to("accel_drift_rw_mps2_sqrt_s"),
+        "accel_drift_time_s": ws.Number(ws.Interval(1.0, 1e6)),
+        "accel_vrw_mps_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=MPS_SQRT_H)
+        .to("accel_vrw_mps_sqrt_s"),
+    }, into=ImuSpec),
+    "magnetometer": ws.Section({
+        "field_ut": ws.Number(ws.Interval(10.0, 100.0)),
+        "declination_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
+        .to("declination_rad"),
+        "inclination_deg": ws.Number(ws.Interval(-85.0, 85.0), scale=DEG).to("inclination_rad"),
+        "sigma_ut": ws.Number(ws.Interval(0.0, 50.0)),
+    }, into=MagSpec),
+    "gnss": ws.Section({
+        "rate_hz": ws.Number(ws.Interval(0.01, 100.0)),
+        "horizontal_sigma_m": ws.Number(ws.positive(1_000.0)),
+        "vertical_sigma_m": ws.Number(ws.positive(1_000.0)),
+        "velocity_sigma_mps": ws.Number(ws.positive(100.0)),
+    }, into=GnssSpec),
+    "ea": ws.Section({
+        "update_rate_hz": ws.Number(ws.Interval(0.1, 1_000.0)),
+        "roll_pitch_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("roll_pitch_sigma_rad"),
+        "heading_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("heading_sigma_rad"),
+        "initial_sigma_deg": ws.Vector(3, ws.Interval(0.01, 45.0), scale=DEG)
+        .to("initial_sigma_rad"),
+        "initial_bias_sigma_deg_h": ws.Number(ws.positive(36_000.0), scale=DEG_H)
+        .to("initial_bias_sigma_rad_s"),
+    }, into=EaSpec),
+    "ins": ws.Section({
+        "initial_attitude_sigma_deg": ws.Vector(3, ws.Interval(0.01, 45.0), scale=DEG)
+        .to("initial_attitude_sigma_rad"),
+        "initial_velocity_sigma_mps": ws.Number(ws.positive(100.0)),
+        "initial_position_sigma_m": ws.Number(ws.positive(1_000.0)),
+    }, into=InsSpec),
+    "filters": ws.Section({"names": ws.StringList(FILTERS)}, into=FilterSpec),
+    "scoring": ws.Section({
+        "turn_rate_deg_s": ws.Number(ws.positive(30.0), default=1.0, scale=DEG)
+        .to("turn_rate_rad_s"),
+        "accel_mps2": ws.Number(ws.positive(10.0), default=0.05),
+        "divergence_deg": ws.Number(ws.positive(180.0), default=45.0, scale=DEG)
+        .to("divergence_rad"),
+    }, into=ScoringSpec),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=FixedWingWorld)
+
+
+def _every(rate: float, other: float) -> bool:
+    return ws.whole_times(rate, other)
+
+
+RULES = (
+    ws.Rule("gnss.rate_hz", "imu.rate_hz", _every,
+            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
+    ws.Rule("ea.update_rate_hz", "imu.rate_hz", _every,
+            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
+    ws.Rule("duration_s", "gnss.rate_hz", lambda d, r: ws.is_whole(d * r) and d * r >= 2,
+            lambda r: f"must be a whole number (>= 2) of GNSS periods ({1 / r:g} s)"),
+)
+
+
+def _check_flight(v: dict[str, Any], root: ws.Where) -> None:
+    """Manoeuvre lists of one length, in time order, not overlapping, inside the run."""
+    fl, at = v["flight"], root.child("flight")
+    n = len(fl["manoeuvre_start_s"])
+    for key in ("manoeuvre_ramp_s", "turn_rate_deg_s", "climb_deg", "speed_mps"):
+        if len(fl[key]) != n:
+            raise at.child(key).error(f"must have as many entries as manoeuvre_start_s ({n})",
+                                      len(fl[key]))
+    start, ramp = np.array(fl["manoeuvre_start_s"]), np.array(fl["manoeuvre_ramp_s"])
+    end = start + ramp
+    for i in range(1, n):
+        if start[i] < end[i - 1]:
+            raise at.child("manoeuvre_start_s").item(i).error(
+                f"must not start before manoeuvre {i - 1} ends ({end[i - 1]:g} s)", start[i])
+    if end[-1] > v["duration_s"]:
+        raise at.child("manoeuvre_ramp_s").item(n - 1).error(
+            f"the last manoeuvre must end by duration_s ({v['duration_s']:g} s)", ramp[-1])
+
+
+def _check_size(v: dict[str, Any], root: ws.Where) -> None:
+    n = v["duration_s"] * v["imu"]["rate_hz"]
+    msg = limits.over("IMU samples", n, limits.MAX_SAMPLES)
+    if msg:
+        raise root.child("duration_s").error(msg, v["duration_s"])
+
+
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
+          ) -> FixedWingWorld:
+    """Validate a parsed ``fixed-wing`` TOML document and build its world."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    _check_size(v, root)
+    ws.check_rules(RULES, v, root)
+    _check_flight(v, root)
+    return ws.build(WORLD, v, name=name, source=source)
