@@ -35,6 +35,8 @@ AS_KEY: Any = object()
 def format_value(value: Any, limit: int = 60, depth: int = 0) -> str:
     """A value as it would be written in TOML, shortened to ``limit`` characters (long
     strings and collections are cut before they are formatted in full)."""
+    if isinstance(value, np.generic | np.ndarray):  # a numpy value from cross-key code
+        value = value.tolist()
     if isinstance(value, bool):
         text = "true" if value else "false"
     elif isinstance(value, str):

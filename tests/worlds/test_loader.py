@@ -76,3 +76,15 @@ def test_missing_file_and_non_utf8_text_are_world_errors(tmp_path: Path) -> None
     bad.write_bytes('description = "caf\xe9"\n'.encode("latin-1"))
     with pytest.raises(WorldError, match="not UTF-8"):
         read_world(bad)
+
+
+def test_a_numpy_value_is_shown_as_toml_in_an_error():
+    """Cross-key checks compute with numpy; the message shows ``5.0``, not
+    ``np.float64(5.0)``."""
+    import numpy as np
+
+    from worlds.schema import format_value
+
+    assert format_value(np.float64(5.0)) == "5.0"
+    assert format_value(np.array([1.5, 2.0])) == "[1.5, 2.0]"
+    assert format_value(np.bool_(True)) == "true" and format_value(np.int64(3)) == "3"
