@@ -74,7 +74,8 @@ def fam_number(rng: random.Random, lines: list[str]) -> Result:
     i = rng.randrange(len(out))
     tag = out[i].split()[0]
     j = rng.randrange(1, len(FIELDS[tag]))
-    tok = rng.choice(_TOKENS)
+    old = out[i].split()[j] if j < len(out[i].split()) else None
+    tok = rng.choice([t for t in _TOKENS if t != old])  # a change, never the same token
     _set(out, i, j, tok)
     shown = tok if len(tok) < 20 else f"{tok[:3]}...({len(tok)} chars)"
     return f"line {i + 1} {tag} {FIELDS[tag][j]} = {shown!r}", _join(out)

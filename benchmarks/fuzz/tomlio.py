@@ -18,7 +18,7 @@ _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 def key(name: str) -> str:
     """A TOML key: bare when it can be, else a quoted basic string."""
-    return name if _BARE.match(name) else string(name)
+    return name if _BARE.fullmatch(name) else string(name)  # ($ would allow a final \n)
 
 
 def string(text: str) -> str:
