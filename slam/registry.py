@@ -12,7 +12,7 @@ import os
 from typing import Any
 
 from slam.kind import Kind
-from slam.kinds import attitude, drone, fixed_wing, planar, recorded, ship, spinning
+from slam.kinds import alignment, attitude, drone, fixed_wing, planar, recorded, ship, spinning
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
 
@@ -27,7 +27,7 @@ def register(kind: Kind) -> Kind:
 
 
 for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
-           fixed_wing.KIND):
+           alignment.KIND, fixed_wing.KIND):
     register(_k)
 
 

@@ -1,0 +1,11 @@
+"""Missile-borne SINS initial alignment on a swaying launcher under wind: the additive
+quaternion error model with the UT-H∞ filter vs the UKF (plus SRCKF, SR-CH∞KF, EKF) and a
+GTSAM CombinedImuFactor smoother ([Wu-Wang 2014])."""
+
+from slam.kind import Kind
+from slam.kinds.alignment.report import REPORT
+from slam.kinds.alignment.run import run_once, summarize
+from slam.kinds.alignment.world import KIND as NAME
+from slam.kinds.alignment.world import NAMES, parse
+
+KIND = Kind(NAME, parse, run_once, summarize, REPORT, filters=NAMES)

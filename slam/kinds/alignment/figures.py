@@ -1,0 +1,169 @@
+"""Figures of an ``alignment`` campaign (from a :class:`~slam.results.CampaignResult` of
+:func:`slam.kinds.alignment.run.run_once` / ``summarize``):
+
+    misalignment_errors.png  the paper's Fig. 1 re-drawn and extended: East / North /
+                             azimuth misalignment error (arcmin) vs time, one row per
+                             filter: run 0 with its ±2σ, the Monte Carlo envelope, the
+                             smoother's run 0 (keys 1 s apart, joined) and the paper's
+                             H∞ values (dashed); the y range of East and North is set after
+                             the first 10 s
+    rms.png                  Monte Carlo RMS of each axis vs time (log scale), every
+                             estimator, with the level limit ∇/g (dotted)
+    nees.png                 run-averaged misalignment NEES / 3 vs time with its 95 % band
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slam.kinds.alignment.scoring import ARCMIN, AXES
+from slam.render.plotting import (
+    ErrorGrid,
+    ErrorPanel,
+    envelope,
+    error_grid,
+    estimator_colours,
+    good_scores,
+    plt,
+    run0,
+    run_average,
+    save,
+    titled,
+)
+from slam.results import REFERENCE, Array, CampaignResult
+from slam.scoring import anees_band
+
+SETTLE_S = 10.0
+PAPER_KEYS = {0: "east_final_arcmin", 1: "north_final_arcmin"}
+
+
+def _names(result: CampaignResult) -> list[str]:
+    first = result.outcomes[0]
+    return [n for n in [*(result.summary.get("filters") or {}), REFERENCE] if n in first.scores]
+
+
+def _joined(t: Array, y: Array) -> Array | None:
+    """``y`` with its NaN gaps filled linearly between finite values (for drawing)."""
+    ok = np.isfinite(y)
+    return None if ok.sum() < 2 else np.interp(t, t[ok], y[ok])
+
+
+def _paper(summary: dict[str, Any], name: str, col: int) -> list[float] | None:
+    claim = ((summary.get("paper") or {}).get("claims") or {}).get(name) or {}
+    v = claim.get(PAPER_KEYS.get(col, ""))
+    return None if not isinstance(v, int | float) else [-float(v), float(v)]
+
+
+def plot_errors(result: CampaignResult, path: Path) -> None:
+    """``misalignment_errors.png`` (module docstring)."""
+    first = run0(result)
+    t = first.times
+    ref = first.scores.get(REFERENCE)
+    settle = int(np.searchsorted(t, min(SETTLE_S, t[-1] / 2)))
+    grid = ErrorGrid(AXES, 13.0, 1.3, "{name}: {axis} (′)",
+                     ("error", "sigma", "envelope", "paper", "reference"),
+                     "misalignment error (arcmin; East/North range set after 10 s)",
+                     groups=((0, 1),))
+
+    def panel(name: str, col: int) -> ErrorPanel:
+        s0 = first.scores.get(name)
+        env = envelope(good_scores(result, name), lambda s: s.err[:, col] / ARCMIN)
+        shown = None
+        if s0 is not None and not s0.diverged:
+            shown = (s0.err[:, col] / ARCMIN, s0.sigma[:, col] / ARCMIN)
+        joined = None if ref is None else _joined(t, ref.err[:, col] / ARCMIN)
+        return ErrorPanel(env, shown, "" if shown else "diverged on run 0", joined,
+                          _paper(result.summary, name, col), settle if col < 2 else 0)
+
+    names = [n for n in _names(result) if n != REFERENCE]
+    error_grid(result, path, grid, panel, estimator_colours(_names(result)), names)
+
+
+def _rms(result: CampaignResult, name: str) -> Array | None:
+    scores = good_scores(result, name)
+    if not scores:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.sqrt(np.nanmean(np.stack([s.err for s in scores]) ** 2, axis=0)) / ARCMIN
+
+
+def plot_rms(result: CampaignResult, path: Path) -> None:
+    """``rms.png`` (module docstring)."""
+    t = run0(result).times
+    names = _names(result)
+    colours = estimator_colours(names)
+    fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), layout="constrained")
+    for k, name in enumerate(names):
+        rms = _rms(result, name)
+        if rms is None:
+            continue
+        lw = 0.9 + 1.6 * (len(names) - 1 - k) / max(len(names) - 1, 1)
+        for col, ax in enumerate(axes):
+            y = rms[:, col] if name != REFERENCE else _joined(t, rms[:, col])
+            if y is not None:
+                ax.plot(t, y, color=colours[name], lw=lw, label=name)
+    tilt = (result.summary.get("limits") or {}).get("tilt_limit_arcmin")
+    for col, (ax, axis) in enumerate(zip(axes, AXES)):
+        ax.set_yscale("log")
+        if col < 2 and isinstance(tilt, int | float):
+            ax.axhline(tilt, color="0.3", ls=":", lw=1.0)
+        ax.set_title(f"{axis}: RMS over runs", fontsize=10)
+        ax.set_xlabel("time (s)")
+        ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    axes[0].set_ylabel("arcmin")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 6),
+               fontsize=8, frameon=False)
+    fig.suptitle(titled(result, "misalignment RMS (dotted: the level limit ∇/g)"), fontsize=11)
+    save(fig, path)
+
+
+def plot_nees(result: CampaignResult, path: Path) -> None:
+    """``nees.png`` (module docstring)."""
+    fig, ax = plt.subplots(figsize=(10.0, 4.8), layout="constrained")
+    t = run0(result).times
+    names = _names(result)
+    colours = estimator_colours(names)
+    for name in names:
+        scores = good_scores(result, name)
+        if not scores:
+            continue
+        y = run_average([s.nees for s in scores], 3.0)
+        if name == REFERENCE:
+            ok = np.isfinite(y)
+            ax.plot(t[ok], y[ok], color=colours[name], lw=1.0, marker=".", ms=3, label=name)
+        else:
+            ax.plot(t, y, color=colours[name], lw=1.0, label=name)
+    lo, hi = anees_band(len(result.outcomes), 3)
+    ax.axhspan(lo, hi, color="0.5", alpha=0.2, lw=0, label="95 % band")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("run-averaged NEES / 3")
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=8, ncols=3, frameon=False)
+    ax.set_title(titled(result, "misalignment NEES (3 dof) vs its 95 % band"), fontsize=11)
+    save(fig, path)
+
+
+def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
+    """File name -> function drawing it."""
+    return {"misalignment_errors.png": plot_errors, "rms.png": plot_rms, "nees.png": plot_nees}
+
+
+CAPTIONS = {
+    "misalignment_errors.png": "The paper's Fig. 1 re-drawn (and the azimuth): East, North "
+                               "and azimuth misalignment error (′) vs time per filter - run 0 "
+                               "with its ±2σ, the Monte Carlo envelope, the smoother's run 0 "
+                               "(keys 1 s apart, joined) and the paper's H∞ values (dashed). "
+                               "East/North y range set after 10 s.",
+    "rms.png": "Monte Carlo RMS of the misalignment error vs time (log scale), every "
+               "estimator; dotted: the level limit ∇/g from the world's accelerometer bias.",
+    "nees.png": "Run-averaged 3-dof misalignment NEES / 3 vs time with its 95 % χ² band "
+                "(the smoother at its keys, where its marginals exist).",
+}

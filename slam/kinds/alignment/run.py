@@ -1,0 +1,157 @@
+r"""Alignment ([Wu-Wang 2014]): one Monte Carlo run and the campaign summary.
+
+Every run simulates the log once (:mod:`slam.kinds.alignment.simulate`) and runs on it
+
+* the world's filters (``[filters] names``), each from :func:`estimators.make_filter`
+  (``uthinf`` / ``srchinf`` with the world's γ, raising on a Riccati-condition failure,
+  which ends the run as diverged with its reason), on the AQE model
+  (:mod:`slam.kinds.alignment.models`): first update at t = 0, then one prediction
+  through the interval's 100 IMU samples and one velocity update per 100 ms, through the
+  one filter loop :func:`estimators.loop.run_epochs`;
+* the GTSAM smoother (:mod:`slam.kinds.alignment.reference`) on the first
+  ``[reference] runs`` runs.
+
+Scores: the residual misalignment (East, North, azimuth = Up) of the corrected attitude
+against the truth, its σ from the estimator's covariance, the 3-dof misalignment NEES
+and the 13-dof NEES of the whole error state (filters only).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from estimators import Euclidean, make_filter
+from estimators.loop import run_epochs
+from estimators.models import Belief
+from slam.kinds.alignment.models import (
+    N_STATE,
+    aqe_transition,
+    initial_belief,
+    misalignment_error,
+    true_state,
+    velocity_measurement,
+)
+from slam.kinds.alignment.reference import smooth_alignment
+from slam.kinds.alignment.scoring import AlignScores, limits, summarize_scores
+from slam.kinds.alignment.simulate import AlignmentLog, simulate_alignment
+from slam.kinds.alignment.world import AlignmentWorld
+from slam.results import REFERENCE, RunOutcome
+from slam.scoring import nees_series
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class _Recorder:
+    """Posterior means and covariances at every epoch (NaN until reached)."""
+
+    means: Array
+    covs: Array
+
+    def __call__(self, j: int, belief: Belief) -> None:
+        self.means[j] = belief.mean
+        self.covs[j] = belief.cov
+
+
+def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str) -> AlignScores:
+    """Filter ``name`` over the log (module docstring), scored against the truth."""
+    flt = make_filter(name, gamma=world.filters.gamma)
+    x0, P0 = initial_belief(world, log)
+    M = log.n_epochs
+    rec = _Recorder(np.full((M, N_STATE), np.nan), np.full((M, N_STATE, N_STATE), np.nan))
+    trans = aqe_transition(world, log)
+    meas = velocity_measurement(world.filters.velocity_sigma_mps)
+
+    def correct(j: int, belief: Belief) -> tuple[Belief, list]:
+        post, innovation = flt.update(belief, meas, log.sins_v[j])
+        return post, [innovation]
+
+    out = run_epochs(flt, flt.init(x0, Euclidean(N_STATE), cov=P0), M, correct_first=True,
+                     transition=lambda j, b: (trans, j - 1), correct=correct, record=rec)
+    nis = np.full(M, np.nan)
+    nis[out.nis_epoch] = out.nis
+    err, cov = misalignment_error(log.sins_q, rec.means[:, :4], rec.covs[:, :4, :4],
+                                  log.truth_q)
+    nees13 = nees_series(true_state(log) - rec.means, rec.covs)
+    return _scores(name, err, cov, nees13, nis, 3, out.time_s, M - 1, out.failure, world)
+
+
+def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_dof: int,
+            time_s: float, cycles: int, failure: str | None, world: AlignmentWorld,
+            note: str | None = None) -> AlignScores:
+    """Assemble :class:`AlignScores`; a final error beyond the world's bound is a
+    divergence with its reason."""
+    with np.errstate(invalid="ignore"):
+        sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    final = err[np.all(np.isfinite(err), axis=1)]
+    size = float(np.degrees(np.linalg.norm(final[-1, :2]))) if len(final) else np.inf
+    if failure is None and not size <= np.degrees(world.scoring.divergence_rad):
+        failure = (f"final level misalignment error {size:.3g} deg exceeds "
+                   f"{np.degrees(world.scoring.divergence_rad):.3g} deg")
+    return AlignScores(name, err, sigma, nees_series(err, cov), nees13, nis, nis_dof, time_s,
+                       cycles, failure is not None, failure, note)
+
+
+def run_reference(world: AlignmentWorld, log: AlignmentLog) -> AlignScores:
+    """The GTSAM smoother's attitude at its keys (NaN between), scored like a filter."""
+    M, every = log.n_epochs, world.epochs_per_key
+    series = smooth_alignment(world, log)
+    err = np.full((M, 3), np.nan)
+    cov = np.full((M, 3, 3), np.nan)
+    idx = np.arange(0, M, every)
+    e, c = misalignment_error(series.q, np.zeros_like(series.q), np.zeros((len(idx), 4, 4)),
+                              log.truth_q[idx])
+    err[idx], cov[idx] = e, series.cov_nav
+    return _scores(REFERENCE, err, cov, np.full(M, np.nan), np.full(M, np.nan), 0,
+                   series.time_s, len(idx) - 1, series.failure, world, series.marginals_failure)
+
+
+def run_once(world: AlignmentWorld, run: int, seed_seq: np.random.SeedSequence,
+             filters: Sequence[str], keep_tracks: bool = False, reference: bool = True
+             ) -> RunOutcome:
+    """Simulate run ``run`` from its own seed; score every filter and the smoother.
+
+    With ``keep_tracks`` the tracks are the scores themselves (the figures draw run 0
+    from them), ``truth`` the (M, 4) true attitude and ``times`` the filter epochs.
+    """
+    log = simulate_alignment(world, np.random.default_rng(seed_seq))
+    scores = {n: run_filter(world, log, n) for n in filters}
+    if reference and run < world.reference.runs:
+        scores[REFERENCE] = run_reference(world, log)
+    if not keep_tracks:
+        return RunOutcome(run, scores)  # type: ignore[arg-type]
+    return RunOutcome(run, scores, dict(scores), np.array(log.truth_q),  # type: ignore[arg-type]
+                      None, np.array(log.times))
+
+
+def summarize(world: AlignmentWorld, outcomes: list[RunOutcome], filters: list[str],
+              runs: int, seed: int) -> dict[str, Any]:
+    """The ``summary.json`` dict of an alignment campaign (keys explained in the report)."""
+    times = np.arange(world.n_epochs) / world.filters.rate_hz
+    factor = world.scoring.settle_factor
+
+    def entry(name: str) -> dict[str, Any]:
+        return summarize_scores([o.scores[name] for o in outcomes if name in o.scores],
+                                times, factor)
+
+    reference = ({REFERENCE: entry(REFERENCE)}
+                 if any(REFERENCE in o.scores for o in outcomes) else {})
+    w = world.wind
+    return {
+        "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
+        "filter_rate_hz": world.filters.rate_hz, "imu_rate_hz": world.imu.rate_hz,
+        "duration_s": world.duration_s, "gamma": world.filters.gamma,
+        "settle_factor": factor, "reference_runs": min(runs, world.reference.runs),
+        "low_frequency_wind_mps": [w.amplitude_x_mps[2], w.amplitude_y_mps[2]],
+        "initial_misalignment_deg": np.degrees(world.filters.initial_misalignment_rad).tolist(),
+        "axes": "East, North, azimuth (Up): residual misalignment Log(q_est ⊗ q_true*)",
+        "limits": limits(world),
+        "filters": {n: entry(n) for n in filters},
+        "reference": reference,
+        "paper": world.paper,
+    }

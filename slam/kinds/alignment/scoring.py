@@ -1,0 +1,173 @@
+r"""Scores of the alignment campaign: per-run series, their Monte Carlo summaries, and the
+theoretical alignment limits of the world.
+
+Errors are the residual misalignment of the corrected attitude, East, North and azimuth
+(Up) components of :math:`\mathrm{Log}(q_{est} \otimes q^*)`, in arcminutes as the paper
+gives them.  Settling time: on the Monte Carlo RMS curve of each axis, the first epoch
+after which the RMS stays within ``settle_factor`` (1.2) × its final value.  Consistency:
+the 3-dof misalignment NEES and the 13-dof NEES of the whole error state against the
+two-sided 95 % χ² band of their run average (Bar-Shalom, Li & Kirubarajan 2001).
+
+Theoretical limits of stationary alignment (e.g. Titterton & Weston, *Strapdown Inertial
+Navigation Technology*, §10): the level misalignment settles where the accelerometer bias
+is balanced, :math:`\phi_E \approx -\nabla_N/g`, :math:`\phi_N \approx \nabla_E/g`; the
+azimuth where the east gyro drift is balanced by the Earth rate it must sense,
+:math:`\phi_U \approx \varepsilon_E/(\Omega\cos L)` - meaningless when the drift exceeds
+:math:`\Omega\cos L` (no heading can be found by gyrocompassing).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nav.strapdown import EARTH_RATE, G0
+from slam.kinds.alignment.world import AlignmentWorld
+from slam.scoring import anees_stats
+
+Array = NDArray[np.float64]
+
+AXES = ("east", "north", "azimuth")
+ARCMIN = math.pi / 180.0 / 60.0
+DEG_H = math.pi / 180.0 / 3600.0
+
+
+@dataclass(frozen=True)
+class AlignScores:
+    """One estimator on one run (radians, at the filter epochs; NaN where none).
+
+    err, sigma : (M, 3) residual misalignment and own σ; nees : (M,) 3-dof; nees13 : (M,)
+    whole error state; nis : (M,) with ``nis_dof``; time_s over ``cycles`` predict +
+    update cycles (the smoother: its solve); note: why the covariance is missing (the
+    smoother's marginals), if it is.
+    """
+
+    name: str
+    err: Array
+    sigma: Array
+    nees: Array
+    nees13: Array
+    nis: Array
+    nis_dof: int
+    time_s: float
+    cycles: int
+    diverged: bool = False
+    failure: str | None = None
+    note: str | None = None
+
+
+def _quiet(fn: Any, *a: Any, **kw: Any) -> Any:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return fn(*a, **kw)
+
+
+def settle_time(rms: Array, times: Array, factor: float) -> float | None:
+    """First time after which the finite ``rms`` stays within ``factor`` × its last
+    value (``None`` if no finite value)."""
+    ok = np.isfinite(rms)
+    if not ok.any():
+        return None
+    r, t = rms[ok], times[ok]
+    outside = r > factor * r[-1]
+    if not outside.any():
+        return float(t[0])
+    last = len(r) - 1 - int(np.argmax(outside[::-1]))
+    return float(t[min(last + 1, len(t) - 1)])
+
+
+def _per_axis(v: Array) -> dict[str, float]:
+    return {a: float(x / ARCMIN) for a, x in zip(AXES, v)}
+
+
+def _windows(rms_sq: Array, times: Array, n: int = 4) -> dict[str, Any]:
+    """RMS per axis (arcmin) over ``n`` equal windows of the run."""
+    edges = np.linspace(times[0], times[-1], n + 1)
+    out: dict[str, Any] = {"windows_s": [[float(a), float(b)] for a, b in
+                                         zip(edges[:-1], edges[1:])]}
+    for i, axis in enumerate(AXES):
+        vals = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            sel = (times > a) & (times <= b)
+            vals.append(float(np.sqrt(_quiet(np.nanmean, rms_sq[sel, i])) / ARCMIN))
+        out[axis] = vals
+    return out
+
+
+def error_stats(e: Array, times: Array, factor: float) -> dict[str, Any]:
+    """Error statistics (arcmin, s) of stacked errors ``e`` (R, M, 3)."""
+    rms_sq = _quiet(np.nanmean, e**2, axis=0)  # (M, 3)
+    rms = np.sqrt(rms_sq)
+    ok = np.all(np.isfinite(rms), axis=1)
+    last = int(np.flatnonzero(ok)[-1])
+    final = np.abs(e[:, last])
+    half = ok & (times >= times[-1] / 2)
+    slope = np.polyfit(times[half], rms[half, 0], 1)[0] if half.sum() > 2 else np.nan
+    return {
+        "final_rms_arcmin": _per_axis(rms[last]),
+        "final_mean_abs_arcmin": _per_axis(np.mean(final, axis=0)),
+        "settle_s": {a: settle_time(rms[:, i], times, factor) for i, a in enumerate(AXES)},
+        "rms_window_arcmin": _windows(rms_sq, times),
+        "east_trend_arcmin_per_100s": float(slope * 100.0 / ARCMIN),
+        "rms_whole_arcmin": _per_axis(np.sqrt(_quiet(np.nanmean, rms_sq, axis=0))),
+    }
+
+
+def _consistency(good: list[AlignScores]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, attr, dof in (("anees", "nees", 3), ("anees_state", "nees13", 13)):
+        stats = anees_stats(np.stack([getattr(s, attr) for s in good]), dof)
+        if stats:
+            out[key] = stats["value"]
+            out[f"{key}_bounds_95"] = stats["band"]
+            out[f"{key}_steps_inside_95"] = stats["inside"]
+            out[f"{key}_steps_above_95"] = stats["above"]
+    nis = np.stack([s.nis for s in good])
+    if np.isfinite(nis).any() and good[0].nis_dof:
+        out["nis_mean"] = float(np.nanmean(nis) / good[0].nis_dof)
+    return out
+
+
+def summarize_scores(scores: list[AlignScores], times: Array, factor: float
+                     ) -> dict[str, Any]:
+    """Monte Carlo summary of one estimator (a ``summary.json`` entry); diverged runs are
+    counted, with their reasons, and left out of every statistic."""
+    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
+    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
+    if bad:
+        out["failures"] = sorted({s.failure or "" for s in bad})
+    if not good:
+        return out
+    notes = [s.note for s in good if s.note]
+    if notes:
+        out["no_covariance_runs"] = len(notes)
+        out["no_covariance_reasons"] = sorted(set(notes))
+    out.update(error_stats(np.stack([s.err for s in good]), times, factor))
+    out.update(_consistency(good))
+    cycles = sum(s.cycles for s in good)
+    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
+    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    return out
+
+
+def limits(world: AlignmentWorld) -> dict[str, Any]:
+    """The theoretical alignment limits from the world's numbers (module docstring)."""
+    m = world.imu
+    accel = math.hypot(m.accel_bias_mps2, m.accel_markov_mps2)
+    drift = math.hypot(m.gyro_bias_rad_s, m.gyro_markov_rad_s)
+    horizontal = EARTH_RATE * math.cos(world.site.latitude_rad)
+    ratio = drift / horizontal
+    return {
+        "accel_bias_sigma_g": accel / G0,
+        "tilt_limit_arcmin": accel / G0 / ARCMIN,
+        "gyro_drift_sigma_deg_h": drift / DEG_H,
+        "earth_rate_horizontal_deg_h": horizontal / DEG_H,
+        "drift_over_earth_rate": ratio,
+        "azimuth_limit_deg": math.degrees(math.asin(ratio)) if ratio < 1.0 else None,
+        "azimuth_observable": ratio < 1.0,
+    }

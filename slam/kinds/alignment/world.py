@@ -1,0 +1,273 @@
+"""The ``alignment`` world: initial alignment of a missile-borne SINS on a swaying
+launcher under wind ([Wu-Wang 2014] §4).
+
+Units are spelled in every key and converted to SI (radians, m/s², rad/s) on load.
+File layout::
+
+    kind = "alignment"
+    description = "one line"
+    runs = 50                       # Monte Carlo runs
+    seed = 0                        # optional
+    duration_s = 200.0
+    [site]     latitude_deg, longitude_deg, height_m
+    [sway]     heading_deg, elevation_deg, elevation_amplitude_deg, elevation_frequency_hz,
+               roll_deg, roll_amplitude_deg, roll_frequency_hz, random_phases
+    [wind]     mean_mps = [x, y], amplitude_x_mps = [3], amplitude_y_mps = [3],
+               frequency_hz = [3], phase_rad = [3], compliance_m_per_mps
+    [imu]      rate_hz, gyro_bias_deg_s, gyro_white_deg_s, gyro_markov_deg_s,
+               gyro_markov_tau_s, accel_bias_g, accel_white_g, accel_markov_g,
+               accel_markov_tau_s
+    [filters]  names, rate_hz, gamma, velocity_sigma_mps, initial_misalignment_deg,
+               initial_sigma_deg
+    [reference] key_interval_s, position_sigma_m, runs
+    [scoring]  settle_factor, divergence_deg
+    [paper]    free-form: the paper's claims, passed through to summary.json
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
+from typing import Any
+
+import worlds.schema as ws
+from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
+from nav.strapdown import G0
+
+KIND = "alignment"
+DEG = math.pi / 180.0
+NAMES = FILTER_NAMES + ROBUST_FILTER_NAMES
+
+
+@dataclass(frozen=True)
+class SiteSpec:
+    """Launcher site (radians, metres); the latitude sets the Earth rate."""
+
+    latitude_rad: float
+    longitude_rad: float
+    height_m: float
+
+
+@dataclass(frozen=True)
+class SwaySpec:
+    """Launcher sway: elevation (nose up) and roll, each ``mean + A sin(2π f t + φ)``;
+    heading fixed (from East, counter-clockwise); phases uniform per run if
+    ``random_phases``."""
+
+    heading_rad: float
+    elevation_rad: float
+    elevation_amplitude_rad: float
+    elevation_frequency_hz: float
+    roll_rad: float
+    roll_amplitude_rad: float
+    roll_frequency_hz: float
+    random_phases: bool
+
+
+@dataclass(frozen=True)
+class WindSpec:
+    """[Wu-Wang 2014] eq. 13: wind speed ``w_x,y(t) = mean + Σ_i a_i sin(2π f_i t + φ_i)``
+    (m/s, x East, y North); the launcher deflects by ``compliance`` × (w − mean) (m)."""
+
+    mean_mps: tuple[float, float]
+    amplitude_x_mps: tuple[float, float, float]
+    amplitude_y_mps: tuple[float, float, float]
+    frequency_hz: tuple[float, float, float]
+    phase_rad: tuple[float, float, float]
+    compliance_m_per_mps: float
+
+
+@dataclass(frozen=True)
+class ImuSpec:
+    """IMU at ``rate_hz``; per axis: random constant (σ), first-order Markov (stationary
+    σ, correlation time) and white noise (σ per sample); SI units."""
+
+    rate_hz: float
+    gyro_bias_rad_s: float
+    gyro_white_rad_s: float
+    gyro_markov_rad_s: float
+    gyro_markov_tau_s: float
+    accel_bias_mps2: float
+    accel_white_mps2: float
+    accel_markov_mps2: float
+    accel_markov_tau_s: float
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+@dataclass(frozen=True)
+class AlignFilterSpec:
+    """Filters, their rate, the H∞ bound, the zero-velocity reference's σ and the
+    initial misalignment (East, North, Up rotation vector of the SINS's error) with the
+    prior σ."""
+
+    names: tuple[str, ...]
+    rate_hz: float
+    gamma: float
+    velocity_sigma_mps: float
+    initial_misalignment_rad: tuple[float, float, float]
+    initial_sigma_rad: tuple[float, float, float]
+
+    @property
+    def mode(self) -> str:
+        """Always ``"joint"`` (read by the command line for every kind)."""
+        return "joint"
+
+
+@dataclass(frozen=True)
+class ReferenceSpec:
+    """GTSAM smoother: one NavState + bias key every ``key_interval_s``; the fixed
+    position's σ; it runs on the first ``runs`` Monte Carlo runs (its 1 kHz
+    preintegration costs about as much as two filters)."""
+
+    key_interval_s: float
+    position_sigma_m: float
+    runs: int
+
+
+@dataclass(frozen=True)
+class ScoringSpec:
+    """Settling: the error stays within ``settle_factor`` × its final value; a run whose
+    final misalignment error exceeds ``divergence_rad`` counts as diverged."""
+
+    settle_factor: float
+    divergence_rad: float
+
+
+@dataclass(frozen=True)
+class AlignmentWorld:
+    """A validated alignment world.  ``paper`` is free-form (JSON-compatible)."""
+
+    name: str
+    kind: str
+    description: str
+    runs: int
+    duration_s: float
+    site: SiteSpec
+    sway: SwaySpec
+    wind: WindSpec
+    imu: ImuSpec
+    filters: AlignFilterSpec
+    reference: ReferenceSpec
+    scoring: ScoringSpec
+    source: str = ""
+    seed: int = 0
+    paper: dict[str, Any] = field(default_factory=dict)
+
+    samples_per_epoch = property(lambda self: round(self.imu.rate_hz / self.filters.rate_hz),
+                                 doc="IMU samples per filter interval")
+    n_epochs = property(lambda self: 1 + round(self.filters.rate_hz * self.duration_s),
+                        doc="filter epochs, the first at t = 0")
+    epochs_per_key = property(lambda self: round(self.reference.key_interval_s
+                                                 * self.filters.rate_hz),
+                              doc="filter epochs per smoother key")
+
+
+SMALL = ws.Interval(0.0, 45.0)
+FREQ = ws.positive(100.0)
+WIND = ws.Interval(0.0, 50.0)
+
+SCHEMA = {
+    **ws.header(KIND),
+    "duration_s": ws.Number(ws.positive(3600.0)),
+    "site": ws.Section({
+        "latitude_deg": ws.Number(ws.Interval(-85.0, 85.0), scale=DEG).to("latitude_rad"),
+        "longitude_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("longitude_rad"),
+        "height_m": ws.Number(ws.Interval(-500.0, 9000.0), default=0.0),
+    }, into=SiteSpec),
+    "sway": ws.Section({
+        "heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("heading_rad"),
+        "elevation_deg": ws.Number(ws.Interval(-80.0, 80.0), scale=DEG).to("elevation_rad"),
+        "elevation_amplitude_deg": ws.Number(SMALL, scale=DEG).to("elevation_amplitude_rad"),
+        "elevation_frequency_hz": ws.Number(FREQ),
+        "roll_deg": ws.Number(ws.Interval(-90.0, 90.0), scale=DEG).to("roll_rad"),
+        "roll_amplitude_deg": ws.Number(SMALL, scale=DEG).to("roll_amplitude_rad"),
+        "roll_frequency_hz": ws.Number(FREQ),
+        "random_phases": ws.Boolean(default=True),
+    }, into=SwaySpec),
+    "wind": ws.Section({
+        "mean_mps": ws.Vector(2, WIND),
+        "amplitude_x_mps": ws.Vector(3, WIND),
+        "amplitude_y_mps": ws.Vector(3, WIND),
+        "frequency_hz": ws.Vector(3, ws.positive(50.0)),
+        "phase_rad": ws.Vector(3, ws.Interval(-10.0, 10.0)),
+        "compliance_m_per_mps": ws.Number(ws.Interval(0.0, 1.0)),
+    }, into=WindSpec),
+    "imu": ws.Section({
+        "rate_hz": ws.Number(ws.Interval(10.0, 10_000.0)),
+        "gyro_bias_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG).to("gyro_bias_rad_s"),
+        "gyro_white_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG)
+        .to("gyro_white_rad_s"),
+        "gyro_markov_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG)
+        .to("gyro_markov_rad_s"),
+        "gyro_markov_tau_s": ws.Number(ws.positive(1e6)),
+        "accel_bias_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_bias_mps2"),
+        "accel_white_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_white_mps2"),
+        "accel_markov_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_markov_mps2"),
+        "accel_markov_tau_s": ws.Number(ws.positive(1e6)),
+    }, into=ImuSpec),
+    "filters": ws.Section({
+        "names": ws.StringList(NAMES),
+        "rate_hz": ws.Number(ws.Interval(0.1, 1000.0)),
+        "gamma": ws.Number(ws.Interval(1e-3, math.inf), default=5.0),
+        "velocity_sigma_mps": ws.Number(ws.positive(10.0)),
+        "initial_misalignment_deg": ws.Vector(3, ws.Interval(-60.0, 60.0), scale=DEG)
+        .to("initial_misalignment_rad"),
+        "initial_sigma_deg": ws.Vector(3, ws.Interval(0.01, 60.0), scale=DEG)
+        .to("initial_sigma_rad"),
+    }, into=AlignFilterSpec),
+    "reference": ws.Section({
+        "key_interval_s": ws.Number(ws.positive(100.0), default=1.0),
+        "position_sigma_m": ws.Number(ws.positive(100.0), default=0.01),
+        "runs": ws.Integer(ws.Interval(0, 100_000), default=100_000),
+    }, into=ReferenceSpec),
+    "scoring": ws.Section({
+        "settle_factor": ws.Number(ws.Interval(1.0, 10.0), default=1.2),
+        "divergence_deg": ws.Number(ws.positive(180.0), default=20.0, scale=DEG)
+        .to("divergence_rad"),
+    }, into=ScoringSpec),
+    "paper": ws.FreeForm(default=dict),
+}
+WORLD = ws.Section(SCHEMA, into=AlignmentWorld)
+
+
+def _whole_periods(duration: float, rate: float) -> bool:
+    return ws.is_whole(duration * rate) and duration * rate >= 1
+
+
+RULES = (
+    ws.Rule("filters.rate_hz", "imu.rate_hz", ws.whole_times,
+            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
+    ws.Rule("duration_s", "filters.rate_hz", _whole_periods,
+            lambda rate: f"must be a whole number (>= 1) of filter periods ({1 / rate:g} s)"),
+    ws.Rule("reference.key_interval_s", "duration_s", operator.le,
+            "must not exceed {other} ({limit:g})"),
+)
+"""Checks across keys, in the order they are made."""
+
+
+def _key_interval_rule(v: dict[str, Any], root: ws.Where) -> None:
+    """The smoother's key interval must be a whole number of filter periods."""
+    ratio = v["reference"]["key_interval_s"] * v["filters"]["rate_hz"]
+    if not (ws.is_whole(ratio) and round(ratio) >= 1):
+        raise root.child("reference").child("key_interval_s").error(
+            f"must be a whole number (>= 1) of filter periods "
+            f"({1 / v['filters']['rate_hz']:g} s)", v["reference"]["key_interval_s"])
+    if not ws.is_whole(v["duration_s"] / v["reference"]["key_interval_s"]):
+        raise root.child("reference").child("key_interval_s").error(
+            f"must divide duration_s ({v['duration_s']:g}) a whole number of times",
+            v["reference"]["key_interval_s"])
+
+
+def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
+          ) -> AlignmentWorld:
+    """Validate a parsed ``alignment`` TOML document and build its :class:`AlignmentWorld`."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    ws.check_rules(RULES, v, root)
+    _key_interval_rule(v, root)
+    return ws.build(WORLD, v, name=name, source=source)
