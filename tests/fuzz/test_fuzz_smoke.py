@@ -85,21 +85,22 @@ def _regressions(bailey: Base, log_lines: list[str]) -> list[Case]:
 def sample(bases: list[Base], log_lines: list[str], tmp_path_factory: pytest.TempPathFactory
            ) -> dict[str, list[Outcome]]:
     """Run the fixed sample once, two at a time: a known-good world, a world with an
-    unknown key, four mutated cheap worlds, two mutated logs and three issue regressions."""
+    unknown key, two mutated cheap worlds, one mutated log and three issue regressions
+    (the long campaigns are `python -m benchmarks.fuzz`)."""
     cheap = [_by_name(bases, "bailey"), _by_name(bases, "star-sensor")]
     good = render(cheap[0], "control", "unmodified")
     doc = json.loads(json.dumps(cheap[0].doc))
     doc["vehicle"]["speed_mpss"] = 3.0
     unknown = render(cheap[0], "control", "unknown key vehicle.speed_mpss", doc)
-    mutated = world_cases(4, 0, cheap, SAMPLE_FAMILIES)
-    logs = log_cases(2, 0, log_lines, ["log-structure", "log-number"])
+    mutated = world_cases(2, 0, cheap, SAMPLE_FAMILIES)
+    logs = log_cases(1, 0, log_lines, ["log-number"])
     cases = [good, unknown, *mutated, *logs, *_regressions(cheap[0], log_lines)]
     work = tmp_path_factory.mktemp("fuzz")
     slam = _slam()
     with ThreadPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(lambda ic: run_case(ic[1], work, slam, LIMITS,
                                                     folder_name=str(ic[0])), enumerate(cases)))
-    return {"control": results[:2], "sample": results[2:8], "regressions": results[8:]}
+    return {"control": results[:2], "sample": results[2:5], "regressions": results[5:]}
 
 
 def _why(o: Outcome) -> str:
@@ -121,7 +122,7 @@ def test_unknown_key_is_rejected(sample: dict[str, list[Outcome]]) -> None:
 
 def test_sample_is_classified(sample: dict[str, list[Outcome]]) -> None:
     outcomes = sample["sample"] + sample["regressions"]
-    assert len(outcomes) == 9
+    assert len(outcomes) == 6
     assert all(o.klass in CLASSES for o in outcomes)
     assert all(o.seconds <= LIMITS.seconds + 5 for o in outcomes)
 
