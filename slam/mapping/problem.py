@@ -37,7 +37,7 @@ import numpy as np
 from estimators import make_filter
 from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
-from estimators.models import Belief, Innovation, Measurement, Transition
+from estimators.models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from estimators.partitioned import BlockLayout
 from slam.mapping.map_series import MapRecorder, MapSeries, vehicle_variances
 
@@ -186,13 +186,14 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
         raise ValueError(f"unknown association {association!r}; choose known or nn")
     if association == "nn" and problem.nearest is None:
         raise ValueError("this log has no nearest-neighbour association; use known ids")
-    filt = make_filter(filter_name, **(filter_params or {}))
+    # a variant ``<base>-<variant>`` is the base filter; the problem carries the variant
+    filt = make_filter(filter_name.partition("-")[0], **(filter_params or {}))
     ops = (_LocalSteps if mode == "local" else _JointSteps)(filt, problem)
     lay = problem.layout
     nv, nvt = lay.vehicle_ambient, lay.vehicle_dim
     steps = problem.steps
     space0 = problem.layout.space_of(0)
-    P0 = np.asarray(problem.P0, dtype=float)
+    P0 = _chart_prior(space0, problem.x0, np.asarray(problem.P0, dtype=float))
     if np.any(P0) and np.any(P0 != np.diag(np.diag(P0))):
         b: Belief = filt.init(problem.x0, space0, cov=P0)
     else:  # zero or diagonal: the factor directly
@@ -206,6 +207,7 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     var = np.full((E, nvt), np.nan)
 
     def record(e: int, b: Belief) -> None:
+        b = world_belief(b)
         poses[e], covs[e] = b.mean[:nv], b.cov_block(rows)
         var[e] = vehicle_variances(b, nvt)
         maps.record(e, b, assoc.slot_ids)
@@ -225,7 +227,7 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
 
     out = run_epochs(filt, b, E, steps=ops, record=record, check=check, transition=transition,
                      correct=lambda e, b: assoc.correct(int(steps[e]), b))
-    b = out.belief
+    b = world_belief(out.belief)
     # the last good belief: an epoch that failed may have named slots it never added
     n_lm, nla, nl = lay.n_landmarks(b.dim), lay.landmark_ambient, lay.landmark_dim
     lm = b.mean[nv:nv + nla * n_lm].reshape(n_lm, nla)
@@ -236,6 +238,28 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
                       lm_cov, out.nis, out.nis_dof, max(out.time_s - maps.seconds, 0.0),
                       out.diverged, out.failure, out.epochs_done, out.nis_epoch, var,
                       maps.series())
+
+
+def world_belief(b: Belief) -> Belief:
+    """``b`` with its covariance in the world chart when its space is a group with error
+    coordinates of its own (a space with ``to_world``, e.g.
+    :class:`~estimators.slam_group.SlamGroup`: first order, :math:`P_w = M P M^\top`);
+    otherwise ``b`` itself."""
+    to_world = getattr(b.space, "to_world", None)
+    if to_world is None:
+        return b
+    if isinstance(b, SqrtGaussian):
+        return SqrtGaussian(b.mean, to_world(b.mean, b.sqrt), b.space)
+    MP = to_world(b.mean, b.cov)
+    return Gaussian(b.mean, to_world(b.mean, MP.T), b.space)
+
+
+def _chart_prior(space: Any, x0: Array, P0: Array) -> Array:
+    """The prior covariance (world chart) in the space's own error coordinates."""
+    from_world = getattr(space, "from_world", None)
+    if from_world is None or not np.any(P0):
+        return P0
+    return from_world(x0, from_world(x0, P0).T)
 
 
 class _Association:

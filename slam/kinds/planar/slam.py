@@ -19,8 +19,17 @@ from slam.kinds.planar.models import (
     range_bearing_jacobian,
     state_space,
 )
+from slam.kinds.planar.variants import (
+    SIDES,
+    FirstEstimates,
+    group_space_of,
+    invariant_augment,
+    invariant_motion,
+    invariant_observation,
+    split_variant,
+)
 from slam.mapping.association import gated_choice
-from slam.mapping.problem import SlamProblem, SlamResult, run_problem
+from slam.mapping.problem import SlamProblem, SlamResult, run_problem, world_belief
 
 #: Layout of the planar state: the pose ``[x, y, φ]``, then 2-D landmarks.
 PLANAR_LAYOUT = BlockLayout.of(state_space)
@@ -29,7 +38,9 @@ PLANAR_LAYOUT = BlockLayout.of(state_space)
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
                        gates: tuple[float, float]) -> int | None:
     """Gated association of one observation ``z`` = [r, b] (see
-    :func:`slam.mapping.association.gated_choice`), linearised at the mean."""
+    :func:`slam.mapping.association.gated_choice`), linearised at the mean (the covariance
+    in the world frame for a group-error belief)."""
+    belief = world_belief(belief)
     x = belief.mean
     slots = np.arange(n_lm)
     zhat = range_bearing(x[None, :], slots)[0].reshape(n_lm, 2)
@@ -51,18 +62,41 @@ def epochs_of(log: PlanarLog, epoch_steps: int) -> Array:
                                      np.asarray(log.obs_step, dtype=int)]))
 
 
-def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float = 1.0
-                   ) -> SlamProblem:
-    """The :class:`SlamProblem` of a simulated planar log (car model, range-bearing)."""
+def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float = 1.0,
+                   variant: str | None = None) -> SlamProblem:
+    """The :class:`SlamProblem` of a simulated planar log (car model, range-bearing).
+
+    ``variant``: ``None`` (standard error), ``"inv"`` / ``"linv"`` (right- / left-invariant
+    group error) or ``"fej"`` (first-estimates Jacobians); see
+    :mod:`slam.kinds.planar.variants`.
+    """
     control_cov = noise_scale * log.control_cov
     obs_cov = noise_scale * log.obs_cov
     motions: dict[int, Transition] = {}
+    side = SIDES.get(variant or "")
+    fej = FirstEstimates(np.asarray(log.x0, dtype=float)) if variant == "fej" else None
 
     def motion(k0: int, k1: int, b: Belief) -> tuple[Transition, Array]:
         n = k1 - k0
         if n not in motions:
-            motions[n] = motion_model(log.dt, log.wheelbase, control_cov, n)
-        return motions[n], log.controls[k0:k1]
+            m = motion_model(log.dt, log.wheelbase, control_cov, n)
+            motions[n] = m if side is None else invariant_motion(m, side)
+        u = log.controls[k0:k1]
+        if fej is not None:
+            return fej.motion(motions[n], b.mean, u), u
+        return motions[n], u
+
+    def observe(slots: Array, index: Array):
+        m = observation_model(slots, obs_cov)
+        if side is not None:
+            return invariant_observation(m, side)
+        return m if fej is None else fej.observation(m, slots)
+
+    def augment(n: int, z: Array, index: Array) -> Transition:
+        m = augmentation_model(n, z, obs_cov)
+        if side is not None:
+            return invariant_augment(m, side)
+        return m if fej is None else fej.augment(m, n)
 
     def nearest(b: Belief, z: Array, n_lm: int, gates: tuple[float, float]) -> int | None:
         return _nearest_neighbour(b, z, obs_cov, n_lm, gates)
@@ -71,9 +105,9 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
         x0=np.asarray(log.x0, dtype=float), P0=np.asarray(log.P0, dtype=float),
         steps=epochs_of(log, epoch_steps), motion=motion,
         observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
-        observe=lambda slots, index: observation_model(slots, obs_cov),
-        augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
-        layout=PLANAR_LAYOUT, truth=log.truth, nearest=nearest, true_landmarks=log.landmarks)
+        observe=observe, augment=augment,
+        layout=PLANAR_LAYOUT if side is None else BlockLayout.of(group_space_of(side)),
+        truth=log.truth, nearest=nearest, true_landmarks=log.landmarks)
 
 
 def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
@@ -91,8 +125,16 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
         check runs noise-free logs with tiny assumed noise).
     mode : ``"joint"`` (sigma points over the whole state) or ``"local"`` (over the
         blocks a step touches, :meth:`estimators.Filter.partitioned`).
+
+    ``filter_name`` may name a variant (``srckf-inv``, ``ekf-fej``, ...;
+    :mod:`slam.kinds.planar.variants`): the base filter on the variant's problem.
     """
-    problem = planar_problem(log, epoch_steps=epoch_steps, noise_scale=noise_scale)
+    variant = split_variant(filter_name)[1]
+    if variant is not None and mode != "joint":
+        raise ValueError(f"{filter_name} runs in joint mode only (see "
+                         "slam.kinds.planar.variants)")
+    problem = planar_problem(log, epoch_steps=epoch_steps, noise_scale=noise_scale,
+                             variant=variant)
     return run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
                        diverge_m=diverge_m, filter_params=filter_params)
 

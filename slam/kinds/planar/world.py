@@ -13,9 +13,11 @@ File layout (degrees only in the file, with ``_deg`` in the key; radians in the 
                initial_sigma_xy_m, initial_sigma_heading_deg (default 0: start known exactly)
     [sensor]   max_range_m, period_steps, sigma_range_m, sigma_bearing_deg, front_half_plane
     [noise]    sigma_speed_mps, sigma_steer_deg
-    [filters]  names, association ("known" | "nn"), gate_accept, gate_new,
+    [filters]  names (also the variants srckf-inv, ekf-fej, ...: slam/kinds/planar/variants.py),
+               association ("known" | "nn"), gate_accept, gate_new,
                mode ("joint": sigma points over the whole state | "local": over the blocks
-               a step touches, for ekf, srckf, srukf, srcdkf; see slam/mapping/local.py)
+               a step touches, for ekf, srckf, srukf, srcdkf; see estimators/partitioned.py;
+               the variants are joint only)
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 Keys of ``[vehicle]``, ``[sensor]``, ``[noise]`` and ``[filters]`` other than the start,
@@ -37,6 +39,7 @@ from numpy.typing import NDArray
 import worlds.schema as ws
 from estimators import PARTITIONED_FILTERS, wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
+from slam.kinds.planar.variants import PLANAR_FILTERS
 from worlds import limits
 
 Array = NDArray[np.float64]
@@ -150,12 +153,13 @@ class World:
 
 
 def filters_section(modes: tuple[str, ...], into: type, *, gate_accept: float,
-                    gate_new: float, **extra: ws.Field) -> ws.Section:
-    """The ``[filters]`` table of a SLAM world: filter names, association, the
-    nearest-neighbour gates (squared Mahalanobis), the mode, and kind-specific keys."""
+                    gate_new: float, names: tuple[str, ...] = FILTER_NAMES,
+                    **extra: ws.Field) -> ws.Section:
+    """The ``[filters]`` table of a SLAM world: filter names (from ``names``), association,
+    the nearest-neighbour gates (squared Mahalanobis), the mode, and kind-specific keys."""
     return ws.Section(
         {
-            "names": ws.StringList(FILTER_NAMES),
+            "names": ws.StringList(names),
             "association": ws.String(choices=ASSOCIATIONS, default="known"),
             "gate_accept": ws.Number(ws.positive(1_000.0), default=gate_accept),
             "gate_new": ws.Number(ws.positive(10_000.0), default=gate_new),
@@ -216,7 +220,8 @@ SCHEMA = {
         required=False,
         into=ControlNoise,
     ),
-    "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0),
+    "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0,
+                               names=PLANAR_FILTERS),
     "paper": ws.FreeForm(default=dict),
 }
 WORLD = ws.Section(SCHEMA, into=World)

@@ -8,10 +8,19 @@ from typing import Any
 
 import numpy as np
 
-from estimators import Euclidean, Measurement, Noise, Transition, wrap_angle
+from estimators import BlockLayout, Euclidean, Measurement, Noise, Transition, wrap_angle
 from estimators.linalg import Array
 from slam.kinds.planar.models import state_space
 from slam.kinds.planar.slam import PLANAR_LAYOUT
+from slam.kinds.planar.variants import (
+    SIDES,
+    FirstEstimates,
+    group_space_of,
+    invariant_augment,
+    invariant_motion,
+    invariant_observation,
+    split_variant,
+)
 from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS, OdometryLog
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem
 
@@ -185,32 +194,55 @@ def recorded_epochs(log: OdometryLog, max_steps: int = DEFAULT_MAX_EPOCH_STEPS) 
     return np.asarray(out, dtype=np.int64)
 
 
-def recorded_problem(log: OdometryLog, *, max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS
-                     ) -> SlamProblem:
-    """The :class:`~slam.mapping.problem.SlamProblem` of a recorded log (known ids, no truth)."""
+def recorded_problem(log: OdometryLog, *, max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
+                     variant: str | None = None) -> SlamProblem:
+    """The :class:`~slam.mapping.problem.SlamProblem` of a recorded log (known ids, no truth);
+    ``variant`` as in :func:`slam.kinds.planar.slam.planar_problem`."""
     sq = np.linalg.cholesky(log.odometry_cov) if len(log.odometry_cov) else np.zeros((0, 3, 3))
     models: dict[bytes, Transition] = {}   # logs often repeat one covariance
+    side = SIDES.get(variant or "")
+    fej = FirstEstimates(np.zeros(3)) if variant == "fej" else None
 
     def motion(k0: int, k1: int, b: Any = None) -> tuple[Transition, Array]:
         key = sq[k0:k1].tobytes()
         if key not in models:
-            models[key] = odometry_model(sq[k0:k1])
-        return models[key], log.odometry[k0:k1]
+            m = odometry_model(sq[k0:k1])
+            models[key] = m if side is None else invariant_motion(m, side)
+        u = log.odometry[k0:k1]
+        if fej is not None:
+            return fej.motion(models[key], b.mean, u), u
+        return models[key], u
+
+    def observe(slots: Array, index: Array) -> Measurement:
+        m = point_observation_model(slots, log.obs_cov[index])
+        if side is not None:
+            return invariant_observation(m, side)
+        return m if fej is None else fej.observation(m, slots)
+
+    def augment(n: int, z: Array, index: Array) -> Transition:
+        m = point_augmentation_model(n, z, log.obs_cov[index])
+        if side is not None:
+            return invariant_augment(m, side)
+        return m if fej is None else fej.augment(m, n)
 
     return SlamProblem(
         x0=np.zeros(3), P0=np.zeros((3, 3)), steps=recorded_epochs(log, max_epoch_steps),
         motion=motion, observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
-        observe=lambda slots, index: point_observation_model(slots, log.obs_cov[index]),
-        augment=lambda n, z, index: point_augmentation_model(n, z, log.obs_cov[index]),
-        layout=PLANAR_LAYOUT, truth=None, nearest=None)
+        observe=observe, augment=augment,
+        layout=PLANAR_LAYOUT if side is None else BlockLayout.of(group_space_of(side)),
+        truth=None, nearest=None)
 
 
 def run_recorded(log: OdometryLog, filter_name: str, *, mode: str = "local",
                  max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
                  filter_params: dict | None = None) -> SlamResult:
-    """Run one filter over a recorded log (the one filter loop)."""
-    return run_problem(recorded_problem(log, max_epoch_steps=max_epoch_steps), filter_name,
-                       mode=mode, filter_params=filter_params)
+    """Run one filter over a recorded log (the one filter loop); a variant name
+    (``srckf-inv``, ``ekf-fej``: :mod:`slam.kinds.planar.variants`) runs in joint mode only."""
+    variant = split_variant(filter_name)[1]
+    if variant is not None and mode != "joint":
+        raise ValueError(f"{filter_name} runs in joint mode only (--mode joint)")
+    problem = recorded_problem(log, max_epoch_steps=max_epoch_steps, variant=variant)
+    return run_problem(problem, filter_name, mode=mode, filter_params=filter_params)
 
 
 def dead_reckoning_poses(log: OdometryLog) -> Array:

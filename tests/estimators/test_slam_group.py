@@ -1,0 +1,148 @@
+"""The planar SLAM group space :math:`SE_{1+n}(2)` (:mod:`estimators.slam_group`): closed-form
+Exp/Log against the matrix exponential, retract/local round trips near 0 and near π, the
+world-frame Jacobian against finite differences, the barycentre.
+
+A linear-Gaussian reduction test does not apply here: a group space is not a vector space
+(its retraction rotates every landmark with the heading), so no model is linear in it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from estimators import Wrapped
+from estimators.slam_group import (
+    SlamGroup,
+    exp_map,
+    invariant_h,
+    invariant_jacobians,
+    log_map,
+    so2_v,
+    so2_v_inv,
+)
+
+N = 2                     # landmarks in the test states: dimension 7
+DIM = 3 + 2 * N
+coord = st.floats(-50.0, 50.0)
+small_angle = st.floats(-1e-5, 1e-5)
+near_pi = st.floats(math.pi - 1e-6, math.pi - 1e-12)
+angle = st.one_of(small_angle, near_pi, near_pi.map(lambda a: -a), st.floats(-3.1, 3.1))
+SIDES = ("right", "left")
+
+
+def _vec(heading: float, rest: list[float]) -> np.ndarray:
+    v = np.array(rest, dtype=float)
+    return np.concatenate([v[:2], [heading], v[2:]])
+
+
+def _algebra(xi: np.ndarray) -> np.ndarray:
+    """The (3 + N) × (3 + N) matrix of se_{1+N}(2) for ξ = [u_p, θ, u_l...]."""
+    A = np.zeros((3 + N, 3 + N))
+    A[0, 1], A[1, 0] = -xi[2], xi[2]
+    cols = [xi[0:2]] + [xi[3 + 2 * i:5 + 2 * i] for i in range(N)]
+    for j, c in enumerate(cols):
+        A[:2, 2 + j] = c
+    return A
+
+
+def _matrix(x: np.ndarray) -> np.ndarray:
+    """The group element's matrix."""
+    X = np.eye(3 + N)
+    c, s = math.cos(x[2]), math.sin(x[2])
+    X[:2, :2] = [[c, -s], [s, c]]
+    X[:2, 2] = x[:2]
+    for i in range(N):
+        X[:2, 3 + i] = x[3 + 2 * i:5 + 2 * i]
+    return X
+
+
+@settings(max_examples=60, deadline=None)
+@given(angle, st.lists(coord, min_size=DIM - 1, max_size=DIM - 1))
+def test_exp_is_the_matrix_exponential_and_log_inverts_it(th, rest):
+    xi = _vec(th, rest)
+    x = exp_map(xi)
+    assert np.allclose(_matrix(x), scipy.linalg.expm(_algebra(xi)), atol=1e-9 * (1 + abs(xi).max()))
+    back = log_map(x)
+    if abs(abs(th) - math.pi) < 1e-9:            # ±π are one rotation: compare modulo 2π
+        back[2] = th
+    assert np.allclose(back, xi, rtol=0, atol=1e-9 * (1 + abs(xi).max()))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from(SIDES), st.floats(-3.1, 3.1), st.lists(coord, min_size=DIM - 1,
+       max_size=DIM - 1), angle, st.lists(st.floats(-5.0, 5.0), min_size=DIM - 1,
+       max_size=DIM - 1))
+def test_local_inverts_retract_near_zero_and_near_pi(side, phi, rest, th, drest):
+    G = SlamGroup(N, side)
+    x, d = _vec(phi, rest), _vec(th, drest)
+    got = G.local(x, G.retract(x, d))
+    if abs(abs(th) - math.pi) < 1e-9:
+        got[2] = th
+    assert np.allclose(got, d, rtol=0, atol=1e-8 * (1 + abs(x).max()))
+
+
+def test_v_and_its_inverse_near_zero_and_pi():
+    t = np.array([0.0, 1e-9, -1e-5, 1e-3])
+    series = 1.0 - t**2 / 6.0 + 1j * (t / 2.0 - t**3 / 24.0)
+    assert np.allclose(so2_v(t), series, rtol=0, atol=1e-12)
+    assert np.allclose(so2_v_inv(t), 1.0 - t**2 / 12.0 - 0.5j * t, rtol=0, atol=1e-12)
+    th = np.linspace(-math.pi, math.pi - 1e-9, 101)
+    assert np.allclose(so2_v(th) * so2_v_inv(th), 1.0, atol=1e-13)
+
+
+def _world_jacobian(G: SlamGroup, x: np.ndarray, eps: float = 1e-6) -> np.ndarray:
+    """Central difference of the standard error of ``x ⊞ ξ`` in ξ."""
+    W = Wrapped(G.dim, (2,))
+    steps = eps * np.eye(G.dim)
+    return (W.local(x, G.retract(x, steps)) - W.local(x, G.retract(x, -steps))).T / (2 * eps)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from(SIDES), angle, st.lists(coord, min_size=DIM - 1, max_size=DIM - 1))
+def test_world_jacobian_matches_finite_differences(side, phi, rest):
+    G = SlamGroup(N, side)
+    x = _vec(phi, rest)
+    M = _world_jacobian(G, x)
+    A = np.random.default_rng(0).normal(size=(DIM, 4))
+    assert np.allclose(G.to_world(x, A), M @ A, atol=1e-6)
+    assert np.allclose(G.from_world(x, G.to_world(x, A)), A, atol=1e-12 * (1 + abs(x).max()))
+    assert np.allclose(G.right_world(x, A.T), A.T @ M, atol=1e-6)
+    assert np.allclose(invariant_h(G, x, A.T), A.T @ M, atol=1e-6)
+
+
+def test_invariant_jacobians_are_the_chain_rule():
+    """F_ξ = M(y)⁻¹ F M(x) for an arbitrary F, and the identity for a pure right
+    multiplication (group-affine motion) under right-invariant error."""
+    rng = np.random.default_rng(1)
+    G = SlamGroup(N, "right")
+    x, y = rng.normal(size=DIM) * 10, rng.normal(size=DIM) * 10
+    F, Gw = rng.normal(size=(DIM, DIM)), rng.normal(size=(DIM, 3))
+    Fx, Gx = invariant_jacobians(G, G, x, y, F, Gw)
+    My, Mx = _world_jacobian(G, y), _world_jacobian(G, x)
+    assert np.allclose(My @ Fx, F @ Mx, atol=1e-5)
+    assert np.allclose(My @ Gx, Gw, atol=1e-5)
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_mean_is_the_barycentre_with_negative_weights(side):
+    """Σ wᵢ (xᵢ ⊟ x̄) = 0 at the returned mean (unscented-like weights, one negative)."""
+    rng = np.random.default_rng(2)
+    G = SlamGroup(N, side)
+    centre = rng.normal(size=DIM) * 20
+    centre[2] = 3.0                                  # the cloud straddles ±π
+    pts = G.retract(centre, rng.normal(size=(15, DIM)) * 0.2)
+    w = np.full(15, 1.2 / 14)
+    w[0] = -0.2
+    m = G.mean(pts, w)
+    assert np.abs(w @ G.local(m, pts)).max() < 1e-11
+    assert np.abs(G.local(centre, m)).max() < 0.5
+
+
+def test_bad_side_is_refused():
+    with pytest.raises(ValueError, match="side"):
+        SlamGroup(1, "middle")  # type: ignore[arg-type]
