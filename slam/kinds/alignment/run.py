@@ -13,7 +13,8 @@ Every run simulates the log once (:mod:`slam.kinds.alignment.simulate`) and runs
 
 Scores: the residual misalignment (East, North, azimuth = Up) of the corrected attitude
 against the truth, its σ from the estimator's covariance, the 3-dof misalignment NEES
-and the 13-dof NEES of the whole error state (filters only).
+the 2-dof NEES of the level axes alone, and the 13-dof NEES of the whole error state
+(filters only).
 """
 
 from __future__ import annotations
@@ -93,8 +94,9 @@ def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_do
     if failure is None and not size <= np.degrees(world.scoring.divergence_rad):
         failure = (f"final level misalignment error {size:.3g} deg exceeds "
                    f"{np.degrees(world.scoring.divergence_rad):.3g} deg")
-    return AlignScores(name, err, sigma, nees_series(err, cov), nees13, nis, nis_dof, time_s,
-                       cycles, failure is not None, failure, note)
+    return AlignScores(name, err, sigma, nees_series(err, cov), nees13,
+                       nees_series(err[:, :2], cov[:, :2, :2]), nis, nis_dof, time_s, cycles,
+                       failure is not None, failure, note)
 
 
 def run_reference(world: AlignmentWorld, log: AlignmentLog) -> AlignScores:

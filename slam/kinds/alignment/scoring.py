@@ -5,8 +5,9 @@ Errors are the residual misalignment of the corrected attitude, East, North and 
 (Up) components of :math:`\mathrm{Log}(q_{est} \otimes q^*)`, in arcminutes as the paper
 gives them.  Settling time: on the Monte Carlo RMS curve of each axis, the first epoch
 after which the RMS stays within ``settle_factor`` (1.2) × its final value.  Consistency:
-the 3-dof misalignment NEES and the 13-dof NEES of the whole error state against the
-two-sided 95 % χ² band of their run average (Bar-Shalom, Li & Kirubarajan 2001).
+the 3-dof misalignment NEES, the 2-dof NEES of the level axes alone and the 13-dof NEES
+of the whole error state against the two-sided 95 % χ² band of their run average
+(Bar-Shalom, Li & Kirubarajan 2001).
 
 Theoretical limits of stationary alignment (e.g. Titterton & Weston, *Strapdown Inertial
 Navigation Technology*, §10): the level misalignment settles where the accelerometer bias
@@ -42,8 +43,9 @@ class AlignScores:
     """One estimator on one run (radians, at the filter epochs; NaN where none).
 
     err, sigma : (M, 3) residual misalignment and own σ; nees : (M,) 3-dof; nees13 : (M,)
-    whole error state; nis : (M,) with ``nis_dof``; time_s over ``cycles`` predict +
-    update cycles (the smoother: its solve); note: why the covariance is missing (the
+    whole error state; nees_level : (M,) 2-dof, the level axes (East, North) alone;
+    nis : (M,) with ``nis_dof``; time_s over ``cycles`` predict + update cycles (the
+    smoother: its solve); note: why the covariance is missing (the
     smoother's marginals), if it is.
     """
 
@@ -52,6 +54,7 @@ class AlignScores:
     sigma: Array
     nees: Array
     nees13: Array
+    nees_level: Array
     nis: Array
     nis_dof: int
     time_s: float
@@ -120,7 +123,8 @@ def error_stats(e: Array, times: Array, factor: float) -> dict[str, Any]:
 
 def _consistency(good: list[AlignScores]) -> dict[str, Any]:
     out: dict[str, Any] = {}
-    for key, attr, dof in (("anees", "nees", 3), ("anees_state", "nees13", 13)):
+    for key, attr, dof in (("anees", "nees", 3), ("anees_state", "nees13", 13),
+                           ("anees_level", "nees_level", 2)):
         stats = anees_stats(np.stack([getattr(s, attr) for s in good]), dof)
         if stats:
             out[key] = stats["value"]

@@ -38,7 +38,10 @@ from nav.strapdown import G0
 
 KIND = "alignment"
 DEG = math.pi / 180.0
-NAMES = FILTER_NAMES + ROBUST_FILTER_NAMES
+NAMES = tuple(n for n in FILTER_NAMES + ROBUST_FILTER_NAMES if n != "hommukf")
+"""Every filter but ``hommukf``: its Julier set (κ = 3 - n, centre weight 1 - 13/3) gives
+an indefinite covariance at the first prediction through the normalised rotation
+R(Q/|Q|) of the AQE model (:mod:`slam.kinds.alignment.models`), a rational map of δQ."""
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,7 @@ def test_a_small_campaign_through_the_command_line(tmp_path: Path) -> None:
         assert set(e["final_rms_arcmin"]) == {"east", "north", "azimuth"}
     for e in s["filters"].values():
         assert e["anees"] > 0 and len(e["anees_bounds_95"]) == 2 and e["anees_state"] > 0
+        assert e["anees_level"] > 0 and len(e["anees_level_bounds_95"]) == 2
     assert s["limits"]["azimuth_observable"] is False
     assert 0.4 < s["limits"]["tilt_limit_arcmin"] < 0.6
     report = (out / "report.md").read_text(encoding="utf-8")

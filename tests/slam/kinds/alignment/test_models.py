@@ -5,6 +5,7 @@ against the DCM, and the misalignment readout's covariance against finite differ
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from nav.quaternion import qexp, qmul, qnormalize
 from slam.kinds.alignment.models import (
@@ -94,9 +95,10 @@ def test_misalignment_covariance_matches_finite_differences() -> None:
     assert np.allclose(cov[0], J @ L @ L.T @ J.T, rtol=1e-5, atol=1e-14)
 
 
-def test_ekf_jacobian_matches_finite_differences() -> None:
+@pytest.mark.parametrize("normalised", [True, False])
+def test_ekf_jacobian_matches_finite_differences(normalised: bool) -> None:
     log = simulate_alignment(_constant_errors_world(), np.random.default_rng(8))
-    fmap = _AqeMap(log)
+    fmap = _AqeMap(log, normalised)
     x = true_state(log)[5] + 0.01 * np.random.default_rng(9).standard_normal(13) * np.r_[
         np.ones(7), 1e-2 * np.ones(6)]
     F = fmap.jacobian(x, 5)
