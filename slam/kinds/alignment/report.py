@@ -21,14 +21,17 @@ from slam.render.document import KindReport, Section, captioned
 from slam.render.tables import (
     MISSING,
     anees_cell,
+    band_note,
     consistency_rule,
     diverged_cell,
     estimator_entries,
+    failure_notes,
     markdown_table,
     num,
     percent,
     plain_table,
     verdict,
+    wrap,
 )
 from slam.results import REFERENCE
 
@@ -230,17 +233,26 @@ def alignment_tables(summary: dict[str, Any]) -> str:
 
 def text_table(summary: dict[str, Any]) -> str:
     """The results as aligned plain text (for the terminal, <= 100 columns)."""
-    rows = [[r[0], r[1], r[2], r[3], r[4], r[5], r[7], r[8].split(" ")[0], r[10], r[14]]
-            for r in result_rows(summary)]
-    head = ["estimator", "E′", "N′", "az′", "settle E", "settle N", "E trend",
-            "ANEES", "verdict", "diverged"]
+    picks = {"estimator": "estimator", "final E (′)": "E′", "final N (′)": "N′",
+             "final az (′)": "az′", "settle E (s)": "E s", "settle N (s)": "N s",
+             "E trend (′/100 s)": "E trend", "ANEES [95 % band]": "ANEES",
+             "in band": "in band", "verdict": "verdict", "ANEES level (E, N)": "level",
+             "diverged": "diverged"}
+    at = [RESULT_HEADER.index(k) for k in picks]  # by name: robust to new columns
+    rows = [[r[i].split(" [")[0] for i in at] for r in result_rows(summary)]
+    head = list(picks.values())
     lim = summary.get("limits") or {}
     tail = (f"limits: level {num(lim.get('tilt_limit_arcmin'), '.2f')}′ (∇/g); azimuth "
             + ("not observable (drift "
                f"{num(lim.get('drift_over_earth_rate'), '.1f')}× Earth rate)"
                if not lim.get("azimuth_observable") else
                f"{num(lim.get('azimuth_limit_deg'), '.1f')}°"))
-    return "\n".join([plain_table(head, rows), "", tail])
+    notes = ["E′ N′ az′: RMS misalignment over the runs at the end, arcmin; E s, N s: "
+             "seconds until the RMS stays within 1.2× its final value; E trend: east RMS "
+             "change per 100 s over the second half; level: the ANEES of the east and north "
+             "misalignment alone.",
+             band_note(summary), *failure_notes(summary)]
+    return "\n".join([plain_table(head, rows), "", tail, *(wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,

@@ -50,6 +50,10 @@ def test_a_small_campaign_through_the_command_line(tmp_path: Path) -> None:
     for title in ("## Results", "## Paper vs ours", "## Theoretical limits"):
         assert title in report
     assert "not observable" in res.output and "uthinf" in res.output
+    table = res.output.split("\n\n")[0].splitlines()
+    assert table[0].split()[:4] == ["estimator", "E′", "N′", "az′"] and "in band" in table[0]
+    assert max(map(len, table)) <= 100
+    assert all(row.split()[-1].count("/") == 1 for row in table[2:])  # diverged runs last
     assert max(len(line) for line in REPORT.text_table(s).splitlines()) <= 100
     assert "| uthinf | settles within 50 s |" in alignment_tables(s)
     for f in REPORT.figures():
