@@ -119,8 +119,14 @@ def report_markdown(result: CampaignResult, kr: KindReport, figures: Sequence[st
     return "\n".join(parts)
 
 
-def _markdown_section(sec: Section) -> list[str]:
-    parts = [f"## {sec.title}", ""]
+def sections_markdown(sections: Sequence[Section], level: int = 3) -> str:
+    """Markdown of ``sections`` alone (title, table, text), headings at ``level``: a
+    kind's tables for the README and the tests."""
+    return "\n".join(line for sec in sections for line in _markdown_section(sec, level))
+
+
+def _markdown_section(sec: Section, level: int = 2) -> list[str]:
+    parts = [f"{'#' * level} {sec.title}", ""]
     if sec.header is not None:
         parts += [markdown_table(sec.header, sec.rows), ""]
     if sec.text:

@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 from slam.kinds.alignment.figures import CAPTIONS, figure_writers
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section, captioned, sections_markdown
 from slam.render.tables import (
     MISSING,
     anees_cell,
@@ -26,7 +26,6 @@ from slam.render.tables import (
     diverged_cell,
     estimator_entries,
     failure_notes,
-    markdown_table,
     num,
     percent,
     plain_table,
@@ -221,14 +220,7 @@ def alignment_sections(summary: dict[str, Any]) -> list[Section]:
 
 def alignment_tables(summary: dict[str, Any]) -> str:
     """Markdown of every section (for the README and the tests)."""
-    parts = []
-    for sec in alignment_sections(summary):
-        parts += [f"### {sec.title}", ""]
-        if sec.header is not None:
-            parts += [markdown_table(sec.header, sec.rows), ""]
-        if sec.text:
-            parts += [sec.text, ""]
-    return "\n".join(parts)
+    return sections_markdown(alignment_sections(summary))
 
 
 def text_table(summary: dict[str, Any]) -> str:

@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 from slam.kinds.ship.figures import CAPTIONS, figure_writers
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section, captioned, sections_markdown
 from slam.render.tables import (
     MISSING,
     anees_cell,
@@ -25,7 +25,6 @@ from slam.render.tables import (
     diverged_cell,
     estimator_entries,
     failure_notes,
-    markdown_table,
     num,
     plain_table,
     verdict,
@@ -249,14 +248,7 @@ def ship_sections(summary: dict[str, Any]) -> list[Section]:
 
 def ship_tables(summary: dict[str, Any]) -> str:
     """Markdown of every section (for the README and the tests)."""
-    parts = []
-    for sec in ship_sections(summary):
-        parts += [f"### {sec.title}", ""]
-        if sec.header is not None:
-            parts += [markdown_table(sec.header, sec.rows), ""]
-        if sec.text:
-            parts += [sec.text, ""]
-    return "\n".join(parts)
+    return sections_markdown(ship_sections(summary))
 
 
 def _verdict_word(entry: dict[str, Any]) -> str:
