@@ -103,6 +103,21 @@ def envelope(scores: list, values: Callable) -> tuple[Array, Array] | None:
         return np.nanmin(a, axis=0), np.nanmax(a, axis=0)
 
 
+def nees_band_axes(ax: plt.Axes, result: CampaignResult, dof: int, what: str) -> None:
+    """Finish a run-averaged NEES / ``dof`` panel: the 95 % band of the campaign's runs
+    shaded, a log axis, labels, legend and the title ``what``."""
+    from slam.scoring import anees_band
+
+    lo, hi = anees_band(len(result.outcomes), dof)
+    ax.axhspan(lo, hi, color="0.5", alpha=0.2, lw=0, label="95 % band")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(f"run-averaged NEES / {dof}")
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=8, ncols=3, frameon=False)
+    ax.set_title(titled(result, what), fontsize=11)
+
+
 def run_average(series: list[Array], dof: float) -> Array:
     """Per-epoch mean over runs of ``series`` divided by ``dof``; NaN where no run has a
     positive value (a log axis drops them)."""

@@ -29,6 +29,7 @@ from slam.render.plotting import (
     error_grid,
     estimator_colours,
     good_scores,
+    nees_band_axes,
     plt,
     run0,
     run_average,
@@ -36,7 +37,6 @@ from slam.render.plotting import (
     titled,
 )
 from slam.results import REFERENCE, Array, CampaignResult
-from slam.scoring import anees_band
 
 SETTLE_S = 10.0
 PAPER_KEYS = {0: "east_final_arcmin", 1: "north_final_arcmin"}
@@ -140,14 +140,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
             ax.plot(t[ok], y[ok], color=colours[name], lw=1.0, marker=".", ms=3, label=name)
         else:
             ax.plot(t, y, color=colours[name], lw=1.0, label=name)
-    lo, hi = anees_band(len(result.outcomes), 3)
-    ax.axhspan(lo, hi, color="0.5", alpha=0.2, lw=0, label="95 % band")
-    ax.set_yscale("log")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("run-averaged NEES / 3")
-    ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    ax.legend(fontsize=8, ncols=3, frameon=False)
-    ax.set_title(titled(result, "misalignment NEES (3 dof) vs its 95 % band"), fontsize=11)
+    nees_band_axes(ax, result, 3, "misalignment NEES (3 dof) vs its 95 % band")
     save(fig, path)
 
 

@@ -31,6 +31,7 @@ from slam.render.plotting import (
     error_grid,
     estimator_colours,
     good_scores,
+    nees_band_axes,
     plt,
     run0,
     run_average,
@@ -38,7 +39,6 @@ from slam.render.plotting import (
     titled,
 )
 from slam.results import REFERENCE, Array, CampaignResult
-from slam.scoring import anees_band
 
 SETTLE_S = 30.0
 
@@ -155,14 +155,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
         return run_average([s.nees6 for s in scores], 6.0) if scores else None
 
     _lines(result, [ax], average, 1)
-    lo, hi = anees_band(len(result.outcomes), 6)
-    ax.axhspan(lo, hi, color="0.5", alpha=0.2, lw=0, label="95 % band")
-    ax.set_yscale("log")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("run-averaged NEES / 6")
-    ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    ax.legend(fontsize=8, ncols=3, frameon=False)
-    ax.set_title(titled(result, "attitude + drift NEES (6 dof) vs its 95 % band"), fontsize=11)
+    nees_band_axes(ax, result, 6, "attitude + drift NEES (6 dof) vs its 95 % band")
     save(fig, path)
 
 
