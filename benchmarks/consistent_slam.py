@@ -12,6 +12,9 @@ Prints one JSON object with up to three sections:
 ``timing``
     CPU time (``time.process_time``) per epoch of every filter on one webmap log (seed 0),
     BLAS on one thread, and each variant's ratio to its standard twin (same process);
+``cost``
+    the invariant variants' cost against their twins, alternating and repeated
+    (:func:`benchmarks.invariant_cost.invariant_cost`; issue #17's target: <= 1.3x);
 ``victoria``
     GTSAM's ``victoria_park.txt`` in ``joint`` mode (default ``ekf``, ``ekf-fej``,
     ``ekf-inv``, ``srckf-inv``; plus ``srckf`` in ``local`` mode, the log's default): per
@@ -19,8 +22,8 @@ Prints one JSON object with up to three sections:
     landmark distance (raw and after the fit), the final heading σ.
 
 Run ``python -m benchmarks.consistent_slam --runs 20 --workers 2`` (add ``--association nn``,
-``--timing``, ``--victoria``, ``--no-webmap``); ``--summary PATH`` reduces the
-``summary.json`` of an earlier ``slam run webmap`` instead of running the campaign.
+``--timing``, ``--cost [--cost-reps 3]``, ``--victoria``, ``--no-webmap``); ``--summary PATH``
+reduces the ``summary.json`` of an earlier ``slam run webmap`` instead of running the campaign.
 """
 
 from __future__ import annotations
@@ -136,6 +139,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--summary", type=Path, help="reduce this summary.json instead")
     ap.add_argument("--no-webmap", action="store_true")
     ap.add_argument("--timing", action="store_true")
+    ap.add_argument("--cost", action="store_true",
+                    help="invariant / standard twin CPU time per epoch, alternating")
+    ap.add_argument("--cost-reps", type=int, default=3)
     ap.add_argument("--victoria", action="store_true")
     ap.add_argument("--victoria-filters", default=",".join(VICTORIA),
                     help="joint-mode filters on Victoria Park (srckf local is always run)")
@@ -147,6 +153,10 @@ def main(argv: list[str] | None = None) -> None:
         out["webmap"] = webmap(a.runs, a.workers, a.association)
     if a.timing:
         out["timing"] = timing()
+    if a.cost:
+        from benchmarks.invariant_cost import invariant_cost
+
+        out["cost"] = invariant_cost(reps=a.cost_reps)
     if a.victoria:
         out["victoria"] = victoria(tuple(a.victoria_filters.split(",")))
     print(json.dumps(out, indent=1))

@@ -35,7 +35,6 @@ chart (:func:`invariant_jacobians`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -46,67 +45,78 @@ from .spaces import wrap_angle
 Side = Literal["right", "left"]
 
 
-
 class MeanNotConvergedError(ArithmeticError):
     """The group barycentre is undefined (a sigma-point cloud spread over ~2π)."""
 
 
-def so2_v(theta: Array) -> Array:
-    r""":math:`V(θ) = (e^{iθ} - 1)/(iθ) = \frac{\sin θ}{θ} + i\frac{1 - \cos θ}{θ}
-    = \mathrm{sinc}\,θ + i\,\tfrac{θ}{2}\,\mathrm{sinc}^2\tfrac{θ}{2}` (no branch at 0)."""
+def _half(theta: Array) -> tuple[Array, Array, Array]:
+    r"""``(θ, q, sinc θ/2)`` with :math:`q = e^{iθ/2}` and :math:`\mathrm{sinc}\,0 = 1`: one
+    complex exponential gives every closed form, :math:`e^{iθ} = q^2`,
+    :math:`V = \mathrm{sinc}\tfrac{θ}{2}\,q`, :math:`V^{-1} = \bar q/\mathrm{sinc}\tfrac{θ}{2}`."""
     t = np.asarray(theta, dtype=float)
-    h = np.sinc(t / (2.0 * np.pi))
-    return np.sinc(t / np.pi) + 0.5j * t * h * h
+    h = 0.5 * t
+    q = np.exp(1j * h)
+    sc = np.divide(q.imag, h, out=np.ones_like(h), where=h != 0.0)
+    return t, q, sc
+
+
+def so2_v(theta: Array) -> Array:
+    r""":math:`V(θ) = (e^{iθ} - 1)/(iθ) = \mathrm{sinc}\tfrac{θ}{2}\,e^{iθ/2}`
+    (no branch at 0)."""
+    _, q, sc = _half(theta)
+    return sc * q
 
 
 def so2_v_inv(theta: Array) -> Array:
     r""":math:`V(θ)^{-1} = \tfrac{θ}{2}\cot\tfrac{θ}{2} - i\tfrac{θ}{2}
-    = \cos\tfrac{θ}{2} / \mathrm{sinc}\tfrac{θ}{2} - i\tfrac{θ}{2}` for :math:`|θ| \le π`."""
-    t = np.asarray(theta, dtype=float)
-    return np.cos(0.5 * t) / np.sinc(t / (2.0 * np.pi)) - 0.5j * t
-
-
-@lru_cache(maxsize=64)
-def _pos_index(ambient: int) -> Array:
-    """Ambient columns of ``[p_x, p_y, l_1x, l_1y, ...]`` (everything but the heading)."""
-    idx = np.r_[0, 1, 3:ambient]
-    idx.setflags(write=False)
-    return idx
+    = e^{-iθ/2} / \mathrm{sinc}\tfrac{θ}{2}` for :math:`|θ| \le π`."""
+    _, q, sc = _half(theta)
+    return q.conj() / sc
 
 
 def _split(x: Array) -> tuple[Array, Array]:
     """Heading (...,) and the positions ``[p, l_1, ..., l_n]`` as complex (..., 1 + n)."""
     x = np.asarray(x, dtype=float)
-    xy = np.ascontiguousarray(x[..., _pos_index(x.shape[-1])])
+    xy = np.concatenate((x[..., 0:2], x[..., 3:]), axis=-1)
     return x[..., 2], xy.view(np.complex128)
 
 
 def _join(phi: Array, pts: Array) -> Array:
     """Inverse of :func:`_split`."""
-    pts = np.ascontiguousarray(pts, dtype=np.complex128)
-    out = np.empty(pts.shape[:-1] + (1 + 2 * pts.shape[-1],))
-    out[..., _pos_index(out.shape[-1])] = pts.view(np.float64)
+    f = np.ascontiguousarray(pts, dtype=np.complex128).view(np.float64)
+    out = np.empty(f.shape[:-1] + (1 + f.shape[-1],))
+    out[..., 0:2] = f[..., 0:2]
+    out[..., 3:] = f[..., 2:]
     out[..., 2] = phi
     return out
+
+
+def _col(a: Array) -> Array:
+    """``a[..., None]``: a per-point factor against the (..., 1 + n) positions."""
+    return np.asarray(a)[..., None]
 
 
 def exp_map(xi: Array) -> Array:
     """Group exponential: ambient coordinates of :math:`\\exp(ξ)` (identity = zeros)."""
     th, u = _split(xi)
-    return _join(wrap_angle(th), so2_v(th)[..., None] * u)
+    t, q, sc = _half(th)
+    return _join(wrap_angle(t), _col(sc * q) * u)
 
 
 def log_map(x: Array) -> Array:
     """Group logarithm (heading wrapped to ``[-π, π)``): inverse of :func:`exp_map`."""
-    th, t = _split(x)
-    th = wrap_angle(th)
-    return _join(th, so2_v_inv(th)[..., None] * t)
+    th, p = _split(x)
+    t, q, sc = _half(wrap_angle(th))
+    return _join(t, _col(q.conj() / sc) * p)
 
 
 @dataclass(frozen=True)
 class SlamGroup:
     """:math:`SE_{1+n}(2)` with ``n_landmarks`` landmarks and right- or left-invariant
-    error (module docstring); a :class:`~estimators.spaces.Space`."""
+    error (module docstring); a :class:`~estimators.spaces.Space`.
+
+    Every operation is vectorised over points (rows) and landmarks (complex columns); each
+    heading's trigonometry is evaluated once (:func:`_half`)."""
 
     n_landmarks: int
     side: Side = "right"
@@ -126,22 +136,28 @@ class SlamGroup:
     def retract(self, x: Array, delta: Array) -> Array:
         phi, pts = _split(x)
         th, u = _split(delta)
-        v = so2_v(th)[..., None] * u
-        if self.side == "right":   # exp(ξ) X: rotate every point, then translate
-            new = np.exp(1j * th)[..., None] * pts + v
-        else:                      # X exp(ξ): translate in the body frame
-            new = pts + np.exp(1j * phi)[..., None] * v
-        return _join(wrap_angle(phi + th), new)
+        t, q, sc = _half(th)
+        v = sc * q if self.side == "right" else np.exp(1j * phi) * (sc * q)
+        # right, exp(ξ) X: translate and rotate every point; left, X exp(ξ): translate in
+        # the body frame.  u is a fresh copy: in place unless x has more rows than ξ
+        own = u if np.ndim(t) >= np.ndim(phi) else None
+        new = np.multiply(u, _col(v), out=own)
+        new = np.add(new, _col(q * q) * pts if self.side == "right" else pts, out=own)
+        return _join(wrap_angle(phi + t), new)
 
     def local(self, x: Array, y: Array) -> Array:
         phx, px = _split(x)
         phy, py = _split(y)
-        th = wrap_angle(phy - phx)
+        t, q, sc = _half(wrap_angle(phy - phx))
+        vinv = q.conj() / sc
         if self.side == "right":   # log(Y X⁻¹)
-            t = py - np.exp(1j * th)[..., None] * px
+            d = _col(q * q) * px
+            np.subtract(py, d, out=d)
+            d *= _col(vinv)
         else:                      # log(X⁻¹ Y)
-            t = np.exp(-1j * phx)[..., None] * (py - px)
-        return _join(th, so2_v_inv(th)[..., None] * t)
+            d = py - px
+            d *= _col(vinv * np.exp(-1j * phx))
+        return _join(t, d)
 
     def mean(self, points: Array, weights: Array) -> Array:
         r"""The group barycentre: :math:`\sum_i w_i (x_i \boxminus \bar x) = 0`, in closed
@@ -155,15 +171,18 @@ class SlamGroup:
             {\sum_i w_i V_i^{-1} e^{iΔ_i}},\qquad
             \text{left: } \bar p = \frac{\sum_i w_i V_i^{-1} p_i}{\sum_i w_i V_i^{-1}}
 
-        (complex numbers; the same for every landmark).  A vanishing denominator (a cloud
-        spread over ~2π) raises :class:`MeanNotConvergedError`.
+        (complex numbers; the same for every landmark; :math:`V^{-1}(Δ) e^{iΔ}
+        = e^{iΔ/2}/\mathrm{sinc}\tfrac{Δ}{2} = \overline{V^{-1}(Δ)}`).  A vanishing
+        denominator (a cloud spread over ~2π) raises :class:`MeanNotConvergedError`.
         """
         phi, pts = _split(points)
         ref = phi[0]
         mphi = wrap_angle(ref + weights @ wrap_angle(phi - ref))
-        d = wrap_angle(phi - mphi)
-        vinv = weights * so2_v_inv(d)
-        den = np.sum(vinv * np.exp(1j * d)) if self.side == "right" else np.sum(vinv)
+        _, q, sc = _half(wrap_angle(phi - mphi))
+        vinv = weights * q.conj() / sc
+        den = complex(np.sum(vinv))
+        if self.side == "right":   # w V⁻¹ e^{iΔ} = w q / sinc: the conjugate of w V⁻¹
+            den = den.conjugate()
         if not (np.isfinite(den) and abs(den) > 1e-9):
             raise MeanNotConvergedError(f"group mean undefined (weight sum {den:.3e})")
         return _join(mphi, (vinv @ pts) / den)
@@ -175,6 +194,7 @@ class SlamGroup:
 
         Right: :math:`M = I + a e_φ^\top`, :math:`a = (Jp, 0, Jl_1, \dots)`,
         :math:`J = [[0, -1], [1, 0]]`; left: :math:`M = \mathrm{blkdiag}(R, 1, R, \dots)`.
+        Applied by blocks (a rank-one update or 2×2 rotations), never as a (d, d) matrix.
         """
         return self._apply(x, A, inverse=False)
 
@@ -184,33 +204,41 @@ class SlamGroup:
 
     def _apply(self, x: Array, A: Array, inverse: bool) -> Array:
         A = np.asarray(A, dtype=float)
-        phi, pts = _split(x)
-        phi_row = A[2]
-        xy = np.concatenate([A[0:2], A[3:]], axis=0)          # (2 + 2n, m) position rows
-        c = xy[0::2] + 1j * xy[1::2]                           # (1 + n, m) complex rows
-        if self.side == "right":
+        x = np.asarray(x, dtype=float)
+        if self.side == "right":   # rows a_x, a_y += ∓ (J q) A_φ for q = p, l_i
+            out = A.copy()
             sign = -1.0 if inverse else 1.0
-            c = c + sign * (1j * pts)[:, None] * phi_row[None, :]
-        else:
-            c = np.exp((-1j if inverse else 1j) * phi) * c
+            r = A[2]
+            out[0] += (-sign * x[1]) * r
+            out[1] += (sign * x[0]) * r
+            out[3::2] += np.multiply.outer(-sign * x[4::2], r)
+            out[4::2] += np.multiply.outer(sign * x[3::2], r)
+            return out
+        phi = -x[2] if inverse else x[2]
+        c, s = np.cos(phi), np.sin(phi)
         out = np.empty_like(A)
-        out[2] = phi_row
-        out[0], out[1] = c[0].real, c[0].imag
-        out[3::2], out[4::2] = c[1:].real, c[1:].imag
+        out[2] = A[2]
+        for ix, iy in ((slice(0, 1), slice(1, 2)), (slice(3, None, 2), slice(4, None, 2))):
+            out[ix] = c * A[ix] - s * A[iy]
+            out[iy] = s * A[ix] + c * A[iy]
         return out
 
     def right_world(self, x: Array, B: Array) -> Array:
         """:math:`B M` for a matrix ``B`` (k, d) with tangent columns (see :meth:`to_world`):
         a Jacobian in the standard chart turned into one in the group's error."""
-        B = np.asarray(B, dtype=float)
-        if self.side == "right":
-            phi, pts = _split(x)
-            a = 1j * pts                                       # J p, J l_i as complex
-            pos = np.concatenate([B[:, 0:2], B[:, 3:]], axis=1)
+        B, x = np.asarray(B, dtype=float), np.asarray(x, dtype=float)
+        if self.side == "right":   # column φ += B a, a = (J p, 0, J l_1, ...)
             out = B.copy()
-            out[:, 2] += pos[:, 0::2] @ a.real + pos[:, 1::2] @ a.imag
+            out[:, 2] += (B[:, 1] * x[0] - B[:, 0] * x[1]
+                          + B[:, 4::2] @ x[3::2] - B[:, 3::2] @ x[4::2])
             return out
-        return self.from_world(x, B.T).T    # M = blkdiag(R, 1, R, ...): B M = (M^T B^T)^T
+        c, s = np.cos(x[2]), np.sin(x[2])   # M = blkdiag(R, 1, R, ...): rotate column pairs
+        out = np.empty_like(B)
+        out[:, 2] = B[:, 2]
+        for ix, iy in ((slice(0, 1), slice(1, 2)), (slice(3, None, 2), slice(4, None, 2))):
+            out[:, ix] = c * B[:, ix] + s * B[:, iy]
+            out[:, iy] = c * B[:, iy] - s * B[:, ix]
+        return out
 
 
 def invariant_jacobians(space_in: SlamGroup, space_out: SlamGroup, x: Array, y: Array,
