@@ -156,10 +156,16 @@ def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[
     return [(world, i, s, list(filters), i == 0) for i, s in enumerate(run_seeds(seed, runs))]
 
 
+def _count(counter: Any) -> int:
+    """The counter's value read without its lock: a worker killed while holding the lock
+    (Ctrl-C stops the pool at once) must not block the reader."""
+    return int(counter.get_obj().value)
+
+
 def _poll(counter: Any, report: Callable[[int], None], done: threading.Event) -> None:
-    """``report(counter.value)`` every half second until ``done``."""
+    """``report`` of the count every half second until ``done``."""
     while not done.wait(0.5):
-        report(int(counter.value))
+        report(_count(counter))
 
 
 def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | None = None,
@@ -210,18 +216,19 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
             if progress:
                 progress(1)
     except BaseException:  # an error, Ctrl-C: no waiting for the runs still going
+        done.set()
         if pool is not None:
             stop_pool(pool)
             pool = None
         raise
     finally:
         done.set()
-        if counter is not None and epochs is not None:
-            epochs(int(counter.value))  # the final count, however short the campaign
         if counter is not None and workers <= 1:
             set_epoch_hook(None)
         if pool is not None:
             pool.shutdown(cancel_futures=True)
+    if counter is not None and epochs is not None:
+        epochs(_count(counter))  # the final count, however short the campaign
     outcomes.sort(key=lambda o: o.run)
     summary = KINDS[world.kind].summarize(world, outcomes, filters, runs, seed)
     return CampaignResult(world, summary, outcomes)
