@@ -97,6 +97,9 @@ class _Group(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, False, **extra)
         own_process = args is None  # the `slam` command itself, not a test runner
+        if own_process and _preload_interrupted():
+            Interrupted().show()
+            _exit(128 + signal.SIGINT, fast=True)
         try:
             rv = super().main(args, prog_name, complete_var, False, **extra)
         except click.ClickException as exc:
@@ -109,6 +112,23 @@ class _Group(click.Group):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _preload_interrupted() -> bool:
+    """Import the heavy modules (numpy, GTSAM, matplotlib through the kinds) with Ctrl-C
+    held back: a ``KeyboardInterrupt`` raised inside a C extension's initialisation
+    turns into an ``ImportError`` and can abort the interpreter.  -> whether SIGINT or
+    SIGTERM arrived meanwhile (the caller then exits 130 at once)."""
+    caught: list[int] = []
+    old = {s: signal.signal(s, lambda signum, _frame: caught.append(signum))
+           for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        import slam.campaign  # noqa: F401  (the registry and every kind with it)
+        import slam.render.output  # noqa: F401
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+    return bool(caught)
 
 
 def _exit(code: int, fast: bool = False) -> None:
