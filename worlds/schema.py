@@ -343,6 +343,28 @@ def header(kind: str) -> dict[str, Field]:
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class SiteSpec:
+    """A place on the Earth (radians, metres); its latitude sets the Earth rate."""
+
+    latitude_rad: float
+    longitude_rad: float
+    height_m: float
+
+
+def site(latitude_max_deg: float, height_m: Interval, height_default: Any = REQUIRED
+         ) -> Section:
+    """The ``[site]`` table of a navigation world: ``latitude_deg`` within
+    ±``latitude_max_deg``, ``longitude_deg``, ``height_m`` in ``height_m``."""
+    deg = math.pi / 180.0
+    return Section({
+        "latitude_deg": Number(Interval(-latitude_max_deg, latitude_max_deg),
+                               scale=deg).to("latitude_rad"),
+        "longitude_deg": Number(Interval(-180.0, 180.0), scale=deg).to("longitude_rad"),
+        "height_m": Number(height_m, default=height_default),
+    }, into=SiteSpec)
+
+
 def read_table(data: Any, schema: Mapping[str, Field | Section], where: Where) -> dict[str, Any]:
     """Check ``data`` against ``schema``; return ``{key: converted value}`` for every key.
 

@@ -45,15 +45,6 @@ R(Q/|Q|) of the AQE model (:mod:`slam.kinds.alignment.models`), a rational map o
 
 
 @dataclass(frozen=True)
-class SiteSpec:
-    """Launcher site (radians, metres); the latitude sets the Earth rate."""
-
-    latitude_rad: float
-    longitude_rad: float
-    height_m: float
-
-
-@dataclass(frozen=True)
 class SwaySpec:
     """Launcher sway: elevation (nose up) and roll, each ``mean + A sin(2π f t + φ)``;
     heading fixed (from East, counter-clockwise); phases uniform per run if
@@ -150,7 +141,7 @@ class AlignmentWorld:
     description: str
     runs: int
     duration_s: float
-    site: SiteSpec
+    site: ws.SiteSpec
     sway: SwaySpec
     wind: WindSpec
     imu: ImuSpec
@@ -177,11 +168,7 @@ WIND = ws.Interval(0.0, 50.0)
 SCHEMA = {
     **ws.header(KIND),
     "duration_s": ws.Number(ws.positive(3600.0)),
-    "site": ws.Section({
-        "latitude_deg": ws.Number(ws.Interval(-85.0, 85.0), scale=DEG).to("latitude_rad"),
-        "longitude_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("longitude_rad"),
-        "height_m": ws.Number(ws.Interval(-500.0, 9000.0), default=0.0),
-    }, into=SiteSpec),
+    "site": ws.site(85.0, ws.Interval(-500.0, 9000.0), 0.0),
     "sway": ws.Section({
         "heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("heading_rad"),
         "elevation_deg": ws.Number(ws.Interval(-80.0, 80.0), scale=DEG).to("elevation_rad"),

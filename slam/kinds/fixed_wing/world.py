@@ -75,15 +75,6 @@ class NumberList(ws.Field):
 
 
 @dataclass(frozen=True)
-class SiteSpec:
-    """Start of the flight (radians, metres)."""
-
-    latitude_rad: float
-    longitude_rad: float
-    height_m: float
-
-
-@dataclass(frozen=True)
 class FlightSpec:
     """The smooth flight: start state and manoeuvres; manoeuvre ``i`` ramps turn rate,
     flight-path angle and speed from their previous values to its targets over
@@ -192,7 +183,7 @@ class FixedWingWorld:
     description: str
     runs: int
     duration_s: float
-    site: SiteSpec
+    site: ws.SiteSpec
     flight: FlightSpec
     imu: ImuSpec
     magnetometer: MagSpec
@@ -215,11 +206,7 @@ SPEED = ws.Interval(5.0, 100.0)
 SCHEMA = {
     **ws.header(KIND),
     "duration_s": ws.Number(ws.positive(7_200.0)),
-    "site": ws.Section({
-        "latitude_deg": ws.Number(ws.Interval(-80.0, 80.0), scale=DEG).to("latitude_rad"),
-        "longitude_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("longitude_rad"),
-        "height_m": ws.Number(ws.Interval(-400.0, 10_000.0)),
-    }, into=SiteSpec),
+    "site": ws.site(80.0, ws.Interval(-400.0, 10_000.0)),
     "flight": ws.Section({
         "start_speed_mps": ws.Number(SPEED),
         "start_heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)

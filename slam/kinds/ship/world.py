@@ -80,15 +80,6 @@ class Variants(ws.Field):
 
 
 @dataclass(frozen=True)
-class SiteSpec:
-    """Where the ship floats (radians, metres); the latitude sets the Earth rate."""
-
-    latitude_rad: float
-    longitude_rad: float
-    height_m: float
-
-
-@dataclass(frozen=True)
 class WaveSpec:
     """Wave-induced attitude motion: ``angle(t) = A sin(2π t / T + φ)`` per axis, yaw about
     ``heading_rad``; phases uniform per run when ``random_phases`` (else zero)."""
@@ -171,7 +162,7 @@ class ShipWorld:
     description: str
     runs: int
     duration_s: float
-    site: SiteSpec
+    site: ws.SiteSpec
     waves: WaveSpec
     gyro: GyroSpec
     vectors: VectorSpec
@@ -193,11 +184,7 @@ PERIOD = ws.Interval(0.5, 600.0)
 SCHEMA = {
     **ws.header(KIND),
     "duration_s": ws.Number(ws.positive(86_400.0)),
-    "site": ws.Section({
-        "latitude_deg": ws.Number(ws.Interval(-89.0, 89.0), scale=DEG).to("latitude_rad"),
-        "longitude_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("longitude_rad"),
-        "height_m": ws.Number(ws.Interval(-100.0, 100.0), default=0.0),
-    }, into=SiteSpec),
+    "site": ws.site(89.0, ws.Interval(-100.0, 100.0), 0.0),
     "waves": ws.Section({
         "heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG).to("heading_rad"),
         "roll_amplitude_deg": ws.Number(ANGLE, scale=DEG).to("roll_amplitude_rad"),
