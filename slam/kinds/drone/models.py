@@ -148,15 +148,6 @@ def propagate_points(X: Array, gyro: Array, accel: Array, nav: NavFrame) -> Arra
     return Y
 
 
-def _skew(v: Array) -> Array:
-    """``[v]×`` of (..., 3) vectors, (..., 3, 3)."""
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
-
-
 def error_transitions(C: Array, w: Array, f: Array, nav: NavFrame, noise: ImuNoise
                       ) -> tuple[Array, Array]:
     """Epoch ``(Φ, Q)`` from the mean's per-sample attitude matrices ``C`` (..., n, 3, 3),
@@ -166,12 +157,12 @@ def error_transitions(C: Array, w: Array, f: Array, nav: NavFrame, noise: ImuNoi
     F = np.zeros(w.shape[:-1] + (VEH_DIM, VEH_DIM))
     idx = np.arange(3)
     F[..., idx, 3 + idx] = 1.0  # δp' = δv
-    F[..., TV, TTH] = -C @ _skew(f)
+    F[..., TV, TTH] = -C @ skew(f)
     F[..., TV, TBA] = -C
-    F[..., TTH, TTH] = -_skew(w)
+    F[..., TTH, TTH] = -skew(w)
     F[..., 6 + idx, 9 + idx] = -1.0  # δθ' = -δb_g
     if nav.earth_rate is not None and np.any(nav.earth_rate):
-        F[..., TV, TV] = -2.0 * _skew(np.asarray(nav.earth_rate, dtype=float))
+        F[..., TV, TV] = -2.0 * skew(np.asarray(nav.earth_rate, dtype=float))
     Fdt = F * dt
     Phis = Fdt + 0.5 * Fdt @ Fdt
     Phis[..., np.arange(VEH_DIM), np.arange(VEH_DIM)] += 1.0

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import Euclidean, Measurement, Noise, Product, Transition
+from nav.quaternion import skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import attitudes, dcm_unit, mechanise
 from slam.kinds.drone.models import psd_sqrt
@@ -97,14 +98,6 @@ def propagate(X: Array, gyro: Array, accel: Array, dt: float, gravity: Array,
     return Y
 
 
-def _skew(v: Array) -> Array:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
-
-
 def error_matrices(C: Array, w: Array, f: Array, earth_rate: Array | None,
                    noise: InsNoise) -> Array:
     """Continuous error-state matrices ``F`` (..., 18, 18) at attitude matrices ``C``,
@@ -112,11 +105,11 @@ def error_matrices(C: Array, w: Array, f: Array, earth_rate: Array | None,
     F = np.zeros(w.shape[:-1] + (DIM, DIM))
     idx = np.arange(3)
     F[..., idx, 3 + idx] = 1.0
-    F[..., TV, TTH] = -C @ _skew(f)
+    F[..., TV, TTH] = -C @ skew(f)
     F[..., TV, TNB] = -C
     if earth_rate is not None and np.any(earth_rate):
-        F[..., TV, TV] = -2.0 * _skew(np.asarray(earth_rate, dtype=float))
-    F[..., TTH, TTH] = -_skew(w)
+        F[..., TV, TV] = -2.0 * skew(np.asarray(earth_rate, dtype=float))
+    F[..., TTH, TTH] = -skew(w)
     F[..., 6 + idx, 9 + idx] = -1.0
     F[..., 6 + idx, 12 + idx] = -1.0
     F[..., 12 + idx, 12 + idx] = -1.0 / noise.gyro_time_s
