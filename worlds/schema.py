@@ -432,6 +432,11 @@ def is_whole(x: float, tol: float = 1e-9) -> bool:
     return abs(x - round(x)) <= tol * max(1.0, abs(x))
 
 
+def whole_periods(duration: float, rate: float) -> bool:
+    """``duration`` is a whole number (>= 1) of periods at ``rate``."""
+    return is_whole(duration * rate) and duration * rate >= 1
+
+
 def whole_times(value: float, other: float) -> bool:
     """``value`` goes into ``other`` a whole number (>= 1) of times."""
     ratio = other / value

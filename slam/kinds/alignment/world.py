@@ -225,14 +225,10 @@ SCHEMA = {
 WORLD = ws.Section(SCHEMA, into=AlignmentWorld)
 
 
-def _whole_periods(duration: float, rate: float) -> bool:
-    return ws.is_whole(duration * rate) and duration * rate >= 1
-
-
 RULES = (
     ws.Rule("filters.rate_hz", "imu.rate_hz", ws.whole_times,
             "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "filters.rate_hz", _whole_periods,
+    ws.Rule("duration_s", "filters.rate_hz", ws.whole_periods,
             lambda rate: f"must be a whole number (>= 1) of filter periods ({1 / rate:g} s)"),
     ws.Rule("reference.key_interval_s", "duration_s", operator.le,
             "must not exceed {other} ({limit:g})"),

@@ -261,15 +261,10 @@ SCHEMA = {
 WORLD = ws.Section(SCHEMA, into=AttitudeWorld)
 
 
-def _whole_periods(duration: float, rate: float) -> bool:
-    """``duration`` is a whole number (>= 1) of periods at ``rate``."""
-    return ws.is_whole(duration * rate) and duration * rate >= 1
-
-
 RULES = (
     ws.Rule("star_sensor.rate_hz", "gyro.rate_hz", ws.whole_times,
             "must divide the gyro rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "star_sensor.rate_hz", _whole_periods,
+    ws.Rule("duration_s", "star_sensor.rate_hz", ws.whole_periods,
             lambda rate: f"must be a whole number (>= 1) of star-sensor periods ({1 / rate:g} s)"),
     ws.Rule("scoring.steady_state_from_s", "duration_s", operator.lt,
             "must be below {other} ({limit:g})"),

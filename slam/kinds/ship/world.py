@@ -236,10 +236,6 @@ SCHEMA = {
 WORLD = ws.Section(SCHEMA, into=ShipWorld)
 
 
-def _whole_periods(duration: float, rate: float) -> bool:
-    return ws.is_whole(duration * rate) and duration * rate >= 1
-
-
 def _subset(value: tuple[str, ...], names: tuple[str, ...]) -> bool:
     return set(value) <= set(names)
 
@@ -247,7 +243,7 @@ def _subset(value: tuple[str, ...], names: tuple[str, ...]) -> bool:
 RULES = (
     ws.Rule("vectors.rate_hz", "gyro.rate_hz", ws.whole_times,
             "must divide the gyro rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "vectors.rate_hz", _whole_periods,
+    ws.Rule("duration_s", "vectors.rate_hz", ws.whole_periods,
             lambda rate: f"must be a whole number (>= 1) of vector periods ({1 / rate:g} s)"),
     ws.Rule("scoring.steady_state_from_s", "duration_s", operator.lt,
             "must be below {other} ({limit:g})"),
