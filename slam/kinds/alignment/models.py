@@ -112,13 +112,17 @@ def quadratic_dcm(Q: Array) -> Array:
 
 def quadratic_rotate(Q: Array, v: Array) -> Array:
     r""":math:`C(Q)\,v = Q \otimes v \otimes Q^*` for unnormalised ``Q`` (m, 4), ``v``
-    (m, 3) or (3,): :math:`(w^2 - u^\top u)v + 2(u^\top v)u + 2w\,u \times v`."""
-    w, u = Q[:, :1], Q[:, 1:]
-    v = np.broadcast_to(v, u.shape)
-    uxv = np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
-                    u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=-1)
-    return ((w * w - np.sum(u * u, axis=1, keepdims=True)) * v
-            + 2.0 * np.sum(u * v, axis=1, keepdims=True) * u + 2.0 * w * uxv)
+    (m, 3), (3,) or (m, k, 3) (k vectors per quaternion):
+    :math:`(w^2 - u^\top u)v + 2(u^\top v)u + 2w\,u \times v`."""
+    batch = np.ndim(v) == 3
+    w, u = (Q[:, None, :1], Q[:, None, 1:]) if batch else (Q[:, :1], Q[:, 1:])
+    v = np.broadcast_to(v, np.broadcast_shapes(u.shape, np.shape(v)))
+    uxv = np.empty(v.shape)
+    uxv[..., 0] = u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1]
+    uxv[..., 1] = u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2]
+    uxv[..., 2] = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    return ((w * w - np.sum(u * u, axis=-1, keepdims=True)) * v
+            + 2.0 * np.sum(u * v, axis=-1, keepdims=True) * u + 2.0 * w * uxv)
 
 
 class _AqeMap:
@@ -134,15 +138,22 @@ class _AqeMap:
         C = qto_dcm(log.sins_q[:-1])
         self.a = ((C @ inc.dv[..., None])[..., 0]
                   - (C @ inc.dv1[..., None])[..., 0] @ self.Wt)
+        # E ⊗ Q0 ⊗ ΔR = L(E) R(ΔR) Q0 (left and right products commute): one (4, 4) per epoch
+        self.L_turn = _left(self.turn)
+        self.K = self.L_turn @ _right_matrix(inc.dq)
 
     def __call__(self, X: Array, j: int) -> Array:
         X = np.atleast_2d(X)
         log, inc = self.log, self.log.inc
         dq, dV, eps, nab = X[:, Q_], X[:, V_], X[:, G_], X[:, A_]
         Q0 = log.sins_q[j] - dq
-        Q1 = hamilton(hamilton(self.turn, Q0), hamilton(inc.dq[j], qexp(-(eps @ inc.A[j].T))))
+        Q1 = hamilton(Q0 @ self.K[j].T, qexp(-(eps @ inc.A[j].T)))
         corr = nab @ inc.B_acc[j].T - eps @ inc.B_gyro[j].T
-        rot = quadratic_rotate(Q0, corr - inc.dv[j]) + quadratic_rotate(Q0, inc.dv1[j]) @ self.Wt
+        both = np.empty((X.shape[0], 2, 3))
+        both[:, 0] = corr - inc.dv[j]
+        both[:, 1] = inc.dv1[j]
+        Cv = quadratic_rotate(Q0, both)
+        rot = Cv[:, 0] + Cv[:, 1] @ self.Wt
         if self.normalised:
             rot = rot / np.sum(Q0 * Q0, axis=1, keepdims=True)
         dV1 = dV @ self.F.T + self.a[j] + rot
@@ -161,18 +172,18 @@ class _AqeMap:
         phi = -(inc.A[j] @ eps)
         tail = hamilton(inc.dq[j], qexp(phi))
         F = np.zeros((N_STATE, N_STATE))
-        F[Q_, Q_] = _left(self.turn) @ _right(tail)
+        F[Q_, Q_] = self.L_turn @ _right(tail)
         dexp = np.vstack([-phi / 4.0, 0.5 * np.eye(3)])
-        F[Q_, G_] = _left(hamilton(hamilton(self.turn, Q0), inc.dq[j])) @ dexp @ inc.A[j]
-        C = qto_dcm(Q0) if self.normalised else quadratic_dcm(Q0)
+        F[Q_, G_] = _left(self.K[j] @ Q0) @ dexp @ inc.A[j]
+        n2 = float(Q0 @ Q0)
+        C = qto_dcm(Q0) if self.normalised else n2 * qto_dcm(Q0)
         corr = inc.B_acc[j] @ x[A_] - inc.B_gyro[j] @ eps
         W = self.Wt.T
         u, u1 = corr - inc.dv[j], inc.dv1[j]
         J = quadratic_rotate_jacobian(Q0, u) + W @ quadratic_rotate_jacobian(Q0, u1)
-        if self.normalised:
-            n2 = float(Q0 @ Q0)
-            rot = quadratic_rotate(Q0[None], u)[0] + W @ quadratic_rotate(Q0[None], u1)[0]
-            J = J / n2 - np.outer(rot, 2.0 * Q0) / n2**2
+        if self.normalised:   # C(Q)v / |Q|^2 with C(Q)v = |Q|^2 R(Q/|Q|) v
+            rot = C @ u + W @ (C @ u1)
+            J = J / n2 - np.outer(rot, 2.0 * Q0) / n2
         F[V_, Q_] = -J
         F[V_, V_] = self.F
         F[V_, G_] = -C @ inc.B_gyro[j]
