@@ -257,3 +257,74 @@ def invariant_h(space: SlamGroup, x: Array, H: Array) -> Array:
     r"""A measurement Jacobian in the standard chart carried to the group's error:
     :math:`H_ξ = H M(x)`."""
     return space.right_world(x, H)
+
+
+def retract_world(space: SlamGroup, x: Array, delta_w: Array) -> Array:
+    r""":math:`x \boxplus M(x)^{-1} δ_w`: a correction ``delta_w`` given in the world
+    chart ``(x, y, φ, l)``, applied on the group (the mean step of the invariant filter
+    whose covariance is kept in the world chart, :func:`transport`)."""
+    d = space.from_world(x, np.asarray(delta_w, dtype=float)[:, None])[:, 0]
+    return space.retract(np.asarray(x, dtype=float), d)
+
+
+def transport(space: SlamGroup, x_old: Array, x_new: Array, cov: Array | None = None,
+              sqrt: Array | None = None) -> Array:
+    r"""A world-chart covariance at ``x_old`` carried to ``x_new`` with the group error held
+    fixed: :math:`P' = T P T^\top`, :math:`T = M(x_{new}) M(x_{old})^{-1}`
+    (:meth:`SlamGroup.to_world`).
+
+    This is what makes a filter that keeps its covariance in the world chart the invariant
+    filter: the group error :math:`ξ` of a correction is unchanged by the move, while the
+    world-frame error it stands for, :math:`M(x)ξ`, depends on the estimate.  For the EKF
+    this (with :func:`retract_world` for the mean) *is* the invariant EKF: its
+    prediction, :math:`F_ξ = M(y)^{-1} F M(x)`, and update, :math:`K_ξ = M(x)^{-1} K_w`,
+    map to the standard ones in the world chart, so only the move of the estimate differs.
+
+    Give ``cov`` (dense, returns :math:`P'`) or ``sqrt`` (lower-triangular ``S``, vehicle
+    first; returns a lower-triangular factor of :math:`P'`).  Right error:
+    :math:`T = I + Δa\,e_φ^\top` (:math:`Δa = a(x_{new}) - a(x_{old})`) adds multiples of
+    the heading row to the position rows; left error: :math:`T = \mathrm{blkdiag}(R(Δφ), 1,
+    R(Δφ), \dots)` rotates every position's pair of rows.  The factor's few non-triangular
+    entries (rows/columns 0-2, resp. each pair's 2×2 block) are cleared by an orthogonal
+    transform of those columns: :math:`O(d)` (right) or :math:`O(d^2)` (left) work.
+    """
+    x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
+
+    def T(A: Array) -> Array:
+        return space.to_world(x_new, space.from_world(x_old, A))
+
+    if cov is not None:
+        return T(T(np.asarray(cov, dtype=float)).T)
+    S = T(np.asarray(sqrt, dtype=float))
+    if space.side == "right":
+        S[:, :3] = _lower_block(S[:, :3], S[:3, :3])
+        S[0, 1:3] = S[1, 2] = 0.0
+        return S
+    return _lower_pairs(S)
+
+
+def _lower_block(cols: Array, block: Array) -> Array:
+    """``cols @ Q`` with ``block @ Q`` lower triangular (LQ of ``block``), positive diagonal."""
+    Q, R = np.linalg.qr(block.T)
+    Q = Q * np.where(np.diagonal(R) < 0.0, -1.0, 1.0)
+    return cols @ Q
+
+
+def _lower_pairs(S: Array) -> Array:
+    """Clear the above-diagonal entry of each position pair's 2×2 diagonal block - columns
+    (0, 1), (3, 4), (5, 6), ... - by one Givens rotation of the pair's columns (all pairs at
+    once), keeping the diagonal non-negative."""
+    a = np.r_[0, 3:S.shape[0]:2]
+    b = a + 1
+    saa, sab = S[a, a], S[a, b]
+    r = np.hypot(saa, sab)
+    c = np.divide(saa, r, out=np.ones_like(r), where=r > 0.0)
+    s = np.divide(sab, r, out=np.zeros_like(r), where=r > 0.0)
+    ca, cb = S[:, a], S[:, b]
+    S[:, a] = ca * c + cb * s
+    S[:, b] = cb * c - ca * s
+    S[a, b] = 0.0
+    neg = S[b, b] < 0.0
+    if neg.any():
+        S[:, b[neg]] *= -1.0
+    return S

@@ -223,7 +223,8 @@ def _stop_signals() -> Iterator[dict[str, int]]:
 @click.option("--no-plots", is_flag=True, help="Skip the figures (faster).")
 @click.option("--mode", type=click.Choice(ALL_MODES),
               help="Filter mode: joint (sigma points over the whole state) or local (over the "
-                   "blocks a step touches; ekf, srckf, srukf, srcdkf). Default: the world's "
+                   "blocks a step touches; ekf, srckf, srukf, srcdkf and their -inv / -linv). "
+                   "Default: the world's "
                    "[filters] mode; local for --log.")
 @click.option("--log", "log_file", metavar="FILE",
               help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "

@@ -39,6 +39,7 @@ from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from estimators.partitioned import BlockLayout
+from estimators.slam_group import retract_world, transport
 from slam.mapping.map_series import MapRecorder, MapSeries, vehicle_variances
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
@@ -117,6 +118,11 @@ class SlamProblem:
         (default: all of them).
     true_landmarks : (N, landmark ambient) true landmark positions by id, or ``None``;
         only for scoring the map per epoch (:class:`~slam.mapping.map_series.MapSeries`).
+    group : local mode with a group error (``<filter>-inv`` in local mode): ``n -> space``
+        of the group (e.g. :class:`~estimators.slam_group.SlamGroup`) whose error the
+        filter keeps; the belief stays in the world chart of ``layout`` and every correction
+        is moved on the group with its covariance transported
+        (:func:`~estimators.slam_group.transport`).  ``None``: no transport.
     """
 
     x0: Array
@@ -134,6 +140,7 @@ class SlamProblem:
     nearest: Callable[..., int | None] | None = None
     record_rows: Array | None = None
     true_landmarks: Array | None = None
+    group: Callable[[int], Any] | None = None
 
     def landmark_rows(self, slot: int) -> Array:
         """Tangent rows of landmark ``slot``."""
@@ -169,10 +176,25 @@ class _LocalSteps:
     def update(self, b: Belief, slots: Array, index: Array, z: Array
                ) -> tuple[Belief, Innovation]:
         model = self.problem.observe(np.arange(len(slots)), index)
-        return self.steps.update(b, slots, model, z)
+        post, innovation = self.steps.update(b, slots, model, z)
+        group = self.problem.group
+        if group is None:
+            return post, innovation
+        return _on_group(group(self.problem.layout.n_landmarks(b.dim)), b, post), innovation
 
     def augment(self, b: Belief, n_before: int, z_new: Array, index: Array) -> Belief:
         return self.steps.augment(b, self.problem.augment(0, z_new, index), z_new)
+
+
+def _on_group(space: Any, prior: Belief, post: Belief) -> Belief:
+    """``post`` (world chart) with its correction made on the group ``space`` and its
+    covariance transported there (:func:`~estimators.slam_group.transport`): the invariant
+    filter's update, to first order (exactly, for the EKF)."""
+    x = prior.mean
+    mean = retract_world(space, x, prior.space.local(x, post.mean))
+    if isinstance(post, SqrtGaussian):
+        return SqrtGaussian(mean, transport(space, x, mean, sqrt=post.sqrt), post.space)
+    return Gaussian(mean, transport(space, x, mean, cov=post.cov), post.space)
 
 
 def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",

@@ -22,8 +22,10 @@ from estimators.slam_group import (
     invariant_h,
     invariant_jacobians,
     log_map,
+    retract_world,
     so2_v,
     so2_v_inv,
+    transport,
 )
 
 N = 2                     # landmarks in the test states: dimension 7
@@ -146,3 +148,40 @@ def test_mean_is_the_barycentre_with_negative_weights(side):
 def test_bad_side_is_refused():
     with pytest.raises(ValueError, match="side"):
         SlamGroup(1, "middle")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("side", SIDES)
+@pytest.mark.parametrize("n", [0, 1, 6])
+def test_transport_is_t_p_tt_and_keeps_the_factor_lower_triangular(side, n):
+    """:math:`T = M(x_{new}) M(x_{old})^{-1}` from explicit matrices; the factor form stays
+    lower triangular with a non-negative diagonal and agrees with the dense form."""
+    rng = np.random.default_rng(n)
+    g = SlamGroup(n, side)
+    x0 = rng.normal(size=g.dim) * 5.0
+    x1 = x0 + rng.normal(size=g.dim)
+    A = rng.normal(size=(g.dim, g.dim))
+    P = A @ A.T
+    M = [g.to_world(x, np.eye(g.dim)) for x in (x0, x1)]
+    T = M[1] @ np.linalg.inv(M[0])
+    expect = T @ P @ T.T
+    dense = transport(g, x0, x1, cov=P)
+    S = transport(g, x0, x1, sqrt=np.linalg.cholesky(P))
+    scale = np.abs(expect).max()
+    assert np.abs(dense - expect).max() < 1e-12 * scale
+    assert np.abs(S @ S.T - expect).max() < 1e-12 * scale
+    assert not np.triu(S, 1).any() and (np.diagonal(S) >= 0.0).all()
+    assert np.abs(T - np.eye(g.dim)).max() > 0.1       # not the identity
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_retract_world_is_the_group_step_of_a_world_correction(side):
+    """A world-chart step δ is the group step :math:`M(x)^{-1}δ`: equal to first order,
+    second-order different, and exact at zero."""
+    rng = np.random.default_rng(5)
+    g = SlamGroup(N, side)
+    x = rng.normal(size=DIM) * 5.0
+    d = rng.normal(size=DIM)
+    assert np.array_equal(retract_world(g, x, np.zeros(DIM)), x)
+    for h, tol in ((1e-4, 1e-7), (1e-6, 1e-11)):
+        y = retract_world(g, x, h * d)
+        assert np.abs(Wrapped(DIM, (2,)).local(x, y) - h * d).max() < tol * 50

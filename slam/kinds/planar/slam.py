@@ -26,7 +26,7 @@ from slam.kinds.planar.variants import (
     invariant_augment,
     invariant_motion,
     invariant_observation,
-    split_variant,
+    problem_for,
 )
 from slam.mapping.association import gated_choice
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem, world_belief
@@ -129,12 +129,9 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
     ``filter_name`` may name a variant (``srckf-inv``, ``ekf-fej``, ...;
     :mod:`slam.kinds.planar.variants`): the base filter on the variant's problem.
     """
-    variant = split_variant(filter_name)[1]
-    if variant is not None and mode != "joint":
-        raise ValueError(f"{filter_name} runs in joint mode only (see "
-                         "slam.kinds.planar.variants)")
-    problem = planar_problem(log, epoch_steps=epoch_steps, noise_scale=noise_scale,
-                             variant=variant)
+    problem = problem_for(lambda variant: planar_problem(
+        log, epoch_steps=epoch_steps, noise_scale=noise_scale, variant=variant),
+        filter_name, mode)
     return run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
                        diverge_m=diverge_m, filter_params=filter_params)
 

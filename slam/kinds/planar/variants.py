@@ -16,10 +16,15 @@ and changes the EKF's Jacobian policy (Huang et al. 2008, first-estimates Jacobi
 * measurement :math:`H` at the pose's first estimate :math:`\hat p_{k|k-1}` and each
   landmark's first estimate (its initialisation from the first sighting).
 
-``-inv`` / ``-linv`` run in ``joint`` mode only: with invariant error a prediction changes
-every landmark's error coordinates (the heading noise enters them, :math:`G_ξ` has map
-rows), which the partitioned (``local``) steps assume never happens.  ``ekf-fej`` is joint
-only too (local mode's measurement sees block slots, not the landmarks' identities).
+In ``local`` mode (:mod:`estimators.partitioned`) ``-inv`` / ``-linv`` keep the covariance
+in the world chart, where the partitioned steps touch only the blocks a step names (with the
+group error a prediction would move every landmark's error coordinates), and make every
+correction on the group with the covariance transported to the new estimate
+(:func:`estimators.slam_group.transport`, :func:`problem_for`).  For the EKF this is the
+invariant EKF exactly (equal to joint mode to round-off, a test); for the sigma-point filters
+the points are drawn in the world chart, so it equals joint mode to first order.
+``ekf-fej`` is joint only (local mode's measurement sees block slots, not the landmarks'
+identities).
 Covariances are reported in the world frame ``(x, y, φ, l)`` to first order
 (:meth:`SlamGroup.to_world <estimators.slam_group.SlamGroup.to_world>`).
 """
@@ -35,6 +40,7 @@ import numpy as np
 from estimators.filters import FILTER_NAMES
 from estimators.linalg import Array
 from estimators.models import Measurement, Transition
+from estimators.partitioned import PARTITIONED_FILTERS
 from estimators.slam_group import SlamGroup, invariant_h, invariant_jacobians
 
 #: Variant suffixes and the filters each applies to.
@@ -47,6 +53,9 @@ VARIANT_NAMES: tuple[str, ...] = tuple(f"{b}-{v}" for v, bases in VARIANTS.items
 #: Every filter name a planar problem accepts.
 PLANAR_FILTERS: tuple[str, ...] = FILTER_NAMES + VARIANT_NAMES
 SIDES = {"inv": "right", "linv": "left"}
+#: Every filter name a planar problem accepts in local mode.
+PLANAR_LOCAL_FILTERS: tuple[str, ...] = PARTITIONED_FILTERS + tuple(
+    f"{b}-{v}" for v in SIDES for b in INVARIANT_BASES if b in PARTITIONED_FILTERS)
 
 
 def split_variant(name: str) -> tuple[str, str | None]:
@@ -55,6 +64,19 @@ def split_variant(name: str) -> tuple[str, str | None]:
     if base and suffix in VARIANTS and base in VARIANTS[suffix]:
         return base, suffix
     return name, None
+
+
+def problem_for(make: Callable[[str | None], Any], filter_name: str, mode: str) -> Any:
+    """The problem ``make(variant)`` for ``filter_name`` in ``mode``: in local mode a
+    group-error variant runs the standard problem with ``group`` set (module docstring);
+    a name without a local mode raises ``ValueError``."""
+    variant = split_variant(filter_name)[1]
+    if mode == "joint" or variant is None:
+        return make(variant)
+    if variant not in SIDES or filter_name not in PLANAR_LOCAL_FILTERS:
+        raise ValueError(f"{filter_name} has no local mode (local: "
+                         f"{', '.join(PLANAR_LOCAL_FILTERS)})")
+    return replace(make(None), group=group_space_of(SIDES[variant]))
 
 
 def group_space_of(side: str):

@@ -37,9 +37,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 import worlds.schema as ws
-from estimators import PARTITIONED_FILTERS, wrap_angle
+from estimators import wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
-from slam.kinds.planar.variants import PLANAR_FILTERS
+from slam.kinds.planar.variants import PLANAR_FILTERS, PLANAR_LOCAL_FILTERS
 from worlds import limits
 
 Array = NDArray[np.float64]
@@ -47,7 +47,7 @@ DEG = math.pi / 180.0
 KIND = "planar-slam"
 ASSOCIATIONS = ("known", "nn")
 MODES = ("joint", "local")
-LOCAL_FILTERS = PARTITIONED_FILTERS
+LOCAL_FILTERS = PLANAR_LOCAL_FILTERS
 
 COORD = ws.Interval(-1e6, 1e6)
 """Allowed map coordinates (m)."""

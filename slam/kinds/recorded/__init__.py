@@ -49,9 +49,8 @@ Scoring (:func:`score_filter`)
     filter epochs, and its whole-log time.
 """
 
-from estimators import PARTITIONED_FILTERS as LOCAL_FILTERS
 from slam.kind import Kind
-from slam.kinds.planar.variants import PLANAR_FILTERS
+from slam.kinds.planar.variants import PLANAR_FILTERS, PLANAR_LOCAL_FILTERS
 from slam.kinds.recorded.report import REPORT
 from slam.kinds.recorded.run import KIND as NAME
 from slam.kinds.recorded.run import MODES, open_log, run_once, summarize
@@ -65,4 +64,4 @@ def _no_world_file(data, name, source, base):
 
 
 KIND = Kind(NAME, _no_world_file, run_once, summarize, REPORT, MODES,
-            {"local": LOCAL_FILTERS}, open_log, filters=PLANAR_FILTERS)
+            {"local": PLANAR_LOCAL_FILTERS}, open_log, filters=PLANAR_FILTERS)

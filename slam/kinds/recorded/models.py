@@ -19,7 +19,7 @@ from slam.kinds.planar.variants import (
     invariant_augment,
     invariant_motion,
     invariant_observation,
-    split_variant,
+    problem_for,
 )
 from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS, OdometryLog
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem
@@ -237,11 +237,10 @@ def run_recorded(log: OdometryLog, filter_name: str, *, mode: str = "local",
                  max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
                  filter_params: dict | None = None) -> SlamResult:
     """Run one filter over a recorded log (the one filter loop); a variant name
-    (``srckf-inv``, ``ekf-fej``: :mod:`slam.kinds.planar.variants`) runs in joint mode only."""
-    variant = split_variant(filter_name)[1]
-    if variant is not None and mode != "joint":
-        raise ValueError(f"{filter_name} runs in joint mode only (--mode joint)")
-    problem = recorded_problem(log, max_epoch_steps=max_epoch_steps, variant=variant)
+    (``srckf-inv``, ``ekf-fej``: :mod:`slam.kinds.planar.variants`; ``ekf-fej`` in joint
+    mode only)."""
+    problem = problem_for(lambda variant: recorded_problem(
+        log, max_epoch_steps=max_epoch_steps, variant=variant), filter_name, mode)
     return run_problem(problem, filter_name, mode=mode, filter_params=filter_params)
 
 
