@@ -17,11 +17,13 @@ Prints one JSON object with up to three sections:
     (:func:`benchmarks.invariant_cost.invariant_cost`; issue #17's target: <= 1.3x);
 ``victoria``
     GTSAM's ``victoria_park.txt`` in ``joint`` mode (default ``ekf``, ``ekf-fej``,
-    ``ekf-inv``, ``srckf-inv``; plus ``srckf`` in ``local`` mode, the log's default): per
+    ``ekf-inv``, ``srckf-inv``; and ``srckf``, ``ekf-inv``, ``srckf-inv``, ``srukf-inv`` in
+    ``local`` mode, the log's default): per
     filter the map rotation of the best rigid fit onto the smoother's landmarks, median/max
     landmark distance (raw and after the fit), the final heading σ.
 
 Run ``python -m benchmarks.consistent_slam --runs 20 --workers 2`` (add ``--association nn``,
+``--mode local``, ``--filters a,b``,
 ``--timing``, ``--cost [--cost-reps 3]``, ``--victoria``, ``--no-webmap``); ``--summary PATH``
 reduces the ``summary.json`` of an earlier ``slam run webmap`` instead of running the campaign.
 """
@@ -40,6 +42,7 @@ import numpy as np
 
 FILTERS = ("ekf", "ekf-fej", "ekf-inv", "srckf", "srckf-inv", "srukf-inv")
 VICTORIA = ("ekf", "ekf-fej", "ekf-inv", "srckf-inv")
+VICTORIA_LOCAL = ("srckf", "ekf-inv", "srckf-inv", "srukf-inv")
 
 
 def _row(entry: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any]:
@@ -66,16 +69,18 @@ def reduce_summary(summary: dict[str, Any]) -> dict[str, Any]:
             "mode": summary.get("mode"), "filters": rows}
 
 
-def webmap(runs: int, workers: int, association: str, filters=FILTERS) -> dict[str, Any]:
-    """Run the campaign (seed 0) and reduce it."""
+def webmap(runs: int, workers: int, association: str, filters=FILTERS, mode: str = "joint"
+           ) -> dict[str, Any]:
+    """Run the campaign (seed 0) in ``mode`` and reduce it."""
     from slam.campaign import run_campaign
     from slam.registry import load_world
 
     world = load_world("webmap")
-    world = replace(world, filters=replace(world.filters, association=association))
+    world = replace(world, filters=replace(world.filters, association=association, mode=mode))
     res = run_campaign(world, filters=list(filters), runs=runs, seed=0, workers=workers)
     out = reduce_summary(res.summary)
     out["association"] = association
+    out["mode"] = mode
     return out
 
 
@@ -105,8 +110,9 @@ def timing(filters=FILTERS) -> dict[str, Any]:
                     "machine; compare ratios only", "filters": rows}
 
 
-def victoria(filters=VICTORIA) -> dict[str, Any]:
-    """Victoria Park in joint mode (and srckf local), scored against the smoother."""
+def victoria(filters=VICTORIA, local=VICTORIA_LOCAL) -> dict[str, Any]:
+    """Victoria Park: ``filters`` in joint mode and ``local`` in local mode (the log's
+    default), scored against the smoother."""
     import gtsam
 
     from estimators.threads import single_thread_blas
@@ -119,7 +125,7 @@ def victoria(filters=VICTORIA) -> dict[str, Any]:
     log = read_odometry_log(Path(gtsam.findExampleDataFile("victoria_park.txt")))
     ref, failure = run_reference(smooth_recorded, log)
     rows: dict[str, Any] = {}
-    runs = [(n, "joint") for n in filters] + [("srckf", "local")]
+    runs = [(n, "joint") for n in filters] + [(n, "local") for n in local]
     with single_thread_blas():
         for name, mode in runs:
             t0 = time.process_time()
@@ -136,6 +142,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--association", choices=("known", "nn"), default="known")
+    ap.add_argument("--mode", choices=("joint", "local"), default="joint")
+    ap.add_argument("--filters", default=",".join(FILTERS), help="webmap filters")
     ap.add_argument("--summary", type=Path, help="reduce this summary.json instead")
     ap.add_argument("--no-webmap", action="store_true")
     ap.add_argument("--timing", action="store_true")
@@ -144,13 +152,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--cost-reps", type=int, default=3)
     ap.add_argument("--victoria", action="store_true")
     ap.add_argument("--victoria-filters", default=",".join(VICTORIA),
-                    help="joint-mode filters on Victoria Park (srckf local is always run)")
+                    help="joint-mode filters on Victoria Park")
+    ap.add_argument("--victoria-local", default=",".join(VICTORIA_LOCAL),
+                    help="local-mode filters on Victoria Park")
     a = ap.parse_args(argv)
     out: dict[str, Any] = {}
     if a.summary is not None:
         out["webmap"] = reduce_summary(json.loads(a.summary.read_text()))
     elif not a.no_webmap:
-        out["webmap"] = webmap(a.runs, a.workers, a.association)
+        out["webmap"] = webmap(a.runs, a.workers, a.association, tuple(a.filters.split(",")),
+                               a.mode)
     if a.timing:
         out["timing"] = timing()
     if a.cost:
@@ -158,7 +169,8 @@ def main(argv: list[str] | None = None) -> None:
 
         out["cost"] = invariant_cost(reps=a.cost_reps)
     if a.victoria:
-        out["victoria"] = victoria(tuple(a.victoria_filters.split(",")))
+        out["victoria"] = victoria(tuple(a.victoria_filters.split(",")),
+                                   tuple(f for f in a.victoria_local.split(",") if f))
     print(json.dumps(out, indent=1))
 
 
