@@ -9,7 +9,8 @@ per epoch of each repetition, the per-repetition ratios, their median and minimu
 ratio of the least times (the runs least disturbed by other jobs), and the 1/5/15-minute
 load averages before and after (a shared machine: compare ratios only).
 
-Run ``python -m benchmarks.invariant_cost --reps 3`` (``--loops 1`` for a shorter log,
+Run ``python -m benchmarks.invariant_cost --reps 3`` (``--mode local``, ``--loops 1`` for a
+shorter log,
 ``--pairs ekf-inv,srckf-inv``); ``python -m benchmarks.consistent_slam --no-webmap
 --cost`` prints the same section.
 """
@@ -30,20 +31,22 @@ PAIRS = ("ekf-inv", "srckf-inv", "srukf-inv")
 TARGET = 1.3
 
 
-def _cpu_per_epoch(log: Any, name: str, epoch_steps: int) -> tuple[float, int]:
+def _cpu_per_epoch(log: Any, name: str, epoch_steps: int, mode: str = "joint"
+                   ) -> tuple[float, int]:
     """CPU seconds per epoch of one run of ``name`` on ``log``, and its epoch count."""
     from slam.kinds.planar.slam import run_slam
 
     t0 = time.process_time()
-    r = run_slam(log, name, epoch_steps=epoch_steps)
+    r = run_slam(log, name, epoch_steps=epoch_steps, mode=mode)
     if r.diverged:
         raise RuntimeError(f"{name} diverged on the benchmark log: {r.failure}")
     return (time.process_time() - t0) / (len(r.steps) - 1), len(r.steps) - 1
 
 
 def invariant_cost(variants: tuple[str, ...] = PAIRS, reps: int = 3, loops: int | None = None,
-                   seed: int = 0) -> dict[str, Any]:
-    """Per-epoch CPU time of each variant and its twin, alternating, ``reps`` times."""
+                   seed: int = 0, mode: str = "joint") -> dict[str, Any]:
+    """Per-epoch CPU time of each variant and its twin (both in ``mode``), alternating,
+    ``reps`` times."""
     from estimators.threads import single_thread_blas
     from slam.kinds.planar.simulate import simulate_planar
     from slam.kinds.planar.variants import split_variant
@@ -64,7 +67,7 @@ def invariant_cost(variants: tuple[str, ...] = PAIRS, reps: int = 3, loops: int 
             for v in variants:
                 order = (("twin", split_variant(v)[0]), ("variant", v))
                 for role, name in order if rep % 2 == 0 else order[::-1]:
-                    cpu, epochs = _cpu_per_epoch(log, name, steps)
+                    cpu, epochs = _cpu_per_epoch(log, name, steps, mode)
                     times[v][role].append(cpu)
     rows = {}
     for v in variants:
@@ -79,6 +82,7 @@ def invariant_cost(variants: tuple[str, ...] = PAIRS, reps: int = 3, loops: int 
                     "BLAS on one thread, twin and variant alternating; shared machine: "
                     "compare ratios only",
             "world": "webmap", "loops": world.vehicle.loops, "seed": seed, "reps": reps,
+            "mode": mode,
             "epochs": epochs, "target_ratio": TARGET,
             "load_average_before": load_before, "load_average_after": os.getloadavg(),
             "filters": rows}
@@ -89,8 +93,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--loops", type=int, default=None, help="webmap loops (default: the world's)")
     ap.add_argument("--pairs", default=",".join(PAIRS), help="comma-separated variants")
+    ap.add_argument("--mode", choices=("joint", "local"), default="joint")
     a = ap.parse_args(argv)
-    print(json.dumps(invariant_cost(tuple(a.pairs.split(",")), a.reps, a.loops), indent=1))
+    print(json.dumps(invariant_cost(tuple(a.pairs.split(",")), a.reps, a.loops, mode=a.mode),
+                     indent=1))
 
 
 if __name__ == "__main__":

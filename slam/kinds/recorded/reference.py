@@ -21,7 +21,9 @@ class RecordedReference:
 
     poses : (P, 3) in chain order; landmark_ids (L,) ascending; landmarks (L, 2);
     objective / objective_isam2 : ``½χ²`` after the LM polish / after iSAM2;
-    time_isam2_s, time_lm_s, time_s : wall times (iSAM2 includes building the graph).
+    time_isam2_s, time_lm_s, time_s : wall times (iSAM2 includes building the graph);
+    final_pose_cov : (3, 3) GTSAM's marginal covariance of the last pose (``Pose2`` local
+    coordinates ``[x, y, θ]`` in the body frame) when asked for, else ``None``.
     """
 
     poses: Array
@@ -32,6 +34,7 @@ class RecordedReference:
     time_isam2_s: float
     time_lm_s: float
     time_s: float
+    final_pose_cov: Array | None = None
 
 
 def bearing_range(z: Array, cov: Array) -> tuple[float, float, Array]:
@@ -43,8 +46,10 @@ def bearing_range(z: Array, cov: Array) -> tuple[float, float, Array]:
     return math.atan2(y, x), r, J @ cov @ J.T
 
 
-def smooth_recorded(log: OdometryLog, *, lm_iterations: int = 100) -> RecordedReference:
-    """Smooth a recorded log with GTSAM: iSAM2 pose by pose, then a batch LM polish."""
+def smooth_recorded(log: OdometryLog, *, lm_iterations: int = 100,
+                    final_marginal: bool = False) -> RecordedReference:
+    """Smooth a recorded log with GTSAM: iSAM2 pose by pose, then a batch LM polish;
+    with ``final_marginal`` also the last pose's marginal covariance (``gtsam.Marginals``)."""
     import gtsam
     from gtsam.symbol_shorthand import L, X
 
@@ -111,7 +116,9 @@ def smooth_recorded(log: OdometryLog, *, lm_iterations: int = 100) -> RecordedRe
                       for p in (values.atPose2(X(int(i))) for i in ids)]).reshape(-1, 3)
     lids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint2(L(int(j))) for j in lids], dtype=float).reshape(-1, 2)
+    final_cov = (np.asarray(gtsam.Marginals(graph, values).marginalCovariance(X(int(ids[-1]))))
+                 if final_marginal else None)
     return RecordedReference(poses, lids, lms, float(graph.error(values)), obj_isam,
-                             t1 - t0, t2 - t1, t2 - t0)
+                             t1 - t0, t2 - t1, t2 - t0, final_cov)
 
 

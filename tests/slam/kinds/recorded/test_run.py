@@ -102,3 +102,22 @@ def test_victoria_park_prefix_filters_agree_with_smoother(victoria_prefix):
     joint = run_recorded(log, "ekf", mode="joint")
     local = run_recorded(log, "ekf", mode="local")
     np.testing.assert_allclose(local.landmarks, joint.landmarks, atol=1e-8)
+
+
+def test_smoother_final_marginal_heading_is_the_summed_odometry_variance():
+    """Odometry only: θ_K = θ_0 + Σ dθ, so the last pose's heading variance is the prior's
+    plus every step's; sightings can only shrink it."""
+    from slam.kinds.recorded.log import PRIOR_SIGMA
+
+    log, _, _ = _simulated_truth_log(np.random.default_rng(4))
+    K = 30
+    chain = OdometryLog(np.arange(K + 1), log.odometry[:K], log.odometry_cov[:K],
+                        np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                        np.zeros((0, 2)), np.zeros((0, 2, 2)))
+    ref = smooth_recorded(chain, final_marginal=True)
+    expect = PRIOR_SIGMA**2 + log.odometry_cov[:K, 2, 2].sum()
+    assert ref.final_pose_cov is not None
+    assert ref.final_pose_cov[2, 2] == pytest.approx(expect, rel=1e-6)
+    assert smooth_recorded(chain).final_pose_cov is None
+    full = smooth_recorded(log, final_marginal=True)
+    assert full.final_pose_cov[2, 2] < log.odometry_cov[:, 2, 2].sum()
