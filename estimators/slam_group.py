@@ -286,7 +286,7 @@ def transport(space: SlamGroup, x_old: Array, x_new: Array, cov: Array | None = 
     the heading row to the position rows; left error: :math:`T = \mathrm{blkdiag}(R(Δφ), 1,
     R(Δφ), \dots)` rotates every position's pair of rows.  The factor's few non-triangular
     entries (rows/columns 0-2, resp. each pair's 2×2 block) are cleared by an orthogonal
-    transform of those columns: :math:`O(d)` (right) or :math:`O(d^2)` (left) work.
+    transform of those columns: :math:`O(d)` arithmetic (right) or :math:`O(d^2)` (left).
     """
     x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
 
@@ -295,17 +295,19 @@ def transport(space: SlamGroup, x_old: Array, x_new: Array, cov: Array | None = 
 
     if cov is not None:
         return T(T(np.asarray(cov, dtype=float)).T)
-    S = T(np.asarray(sqrt, dtype=float))
-    if space.side == "right":
-        S[:, :3] = _lower_block(S[:, :3], S[:3, :3])
+    if space.side == "right":   # row φ of a lower factor is zero past column 2: T acts there
+        S = np.array(sqrt, dtype=float, copy=True)
+        S[:, :3] = _lower_block(T(S[:, :3]))
         S[0, 1:3] = S[1, 2] = 0.0
         return S
-    return _lower_pairs(S)
+    return _lower_pairs(T(np.asarray(sqrt, dtype=float)))
 
 
-def _lower_block(cols: Array, block: Array) -> Array:
-    """``cols @ Q`` with ``block @ Q`` lower triangular (LQ of ``block``), positive diagonal."""
-    Q, R = np.linalg.qr(block.T)
+def _lower_block(cols: Array) -> Array:
+    """``cols @ Q`` (n, k) with its leading (k, k) square made lower triangular (LQ),
+    positive diagonal."""
+    k = cols.shape[1]
+    Q, R = np.linalg.qr(cols[:k].T)
     Q = Q * np.where(np.diagonal(R) < 0.0, -1.0, 1.0)
     return cols @ Q
 
