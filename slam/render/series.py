@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.stats import chi2
 
 from slam.results import Array, CampaignResult
+from slam.scoring import chi2_ppf
 
 Scores = Any
 """One estimator's per-run score object (RunScores, DroneScores, AttitudeScores, ...)."""
@@ -106,8 +106,8 @@ def chi2_band(dof: Array | float, level: float = 0.95) -> tuple[Array, Array]:
     d = np.asarray(dof, dtype=float)
     a = (1.0 - level) / 2.0
     with np.errstate(invalid="ignore", divide="ignore"):
-        lo = np.where(d > 0, chi2.ppf(a, np.maximum(d, 1)) / np.maximum(d, 1), np.nan)
-        hi = np.where(d > 0, chi2.ppf(1 - a, np.maximum(d, 1)) / np.maximum(d, 1), np.nan)
+        lo = np.where(d > 0, chi2_ppf(a, np.maximum(d, 1)) / np.maximum(d, 1), np.nan)
+        hi = np.where(d > 0, chi2_ppf(1 - a, np.maximum(d, 1)) / np.maximum(d, 1), np.nan)
     return lo, hi
 
 

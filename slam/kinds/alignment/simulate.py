@@ -54,7 +54,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate, qto_dcm, skew
 from nav.strapdown import G0, earth_rate_enu, gravity_enu, prefix_products
@@ -177,6 +176,8 @@ def markov(n: int, sigma: float, tau: float, dt: float, rng: np.random.Generator
     a = math.exp(-dt / tau)
     m0 = rng.standard_normal(3) * sigma
     drive = rng.standard_normal((n - 1, 3)) * (sigma * math.sqrt(1.0 - a * a))
+    from scipy.signal import lfilter  # here: scipy.signal loads scipy.stats (~1 s)
+
     out, _ = lfilter([1.0], [1.0, -a], np.vstack([m0, drive]), axis=0, zi=np.zeros((1, 3)))
     return out
 

@@ -30,7 +30,6 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 from nav.quaternion import qconj, qrotate
 from nav.strapdown import earth_rate_enu, gravity_enu
@@ -115,6 +114,8 @@ def markov(rng: np.random.Generator, start: Array, K: int, dt: float, T: float,
     phi = math.exp(-dt / T)
     w = rng.standard_normal((K, 3)) * (density * math.sqrt(0.5 * T * (1.0 - phi * phi)))
     zi = (phi * np.asarray(start, dtype=np.float64))[None]
+    from scipy.signal import lfilter  # here: scipy.signal loads scipy.stats (~1 s)
+
     y, _ = lfilter([1.0], [1.0, -phi], w, axis=0, zi=zi)  # y_k = phi y_(k-1) + w_k
     out = np.vstack([start, y])
     return out

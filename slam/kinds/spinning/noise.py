@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2
+
+from slam.scoring import chi2_ppf
 
 Array = NDArray[np.float64]
 
@@ -68,5 +69,5 @@ def unit_noise(rng: np.random.Generator, shape: tuple[int, ...], ns: NoiseShape)
         return normal * scale
     nu = ns.student_t_dof
     # t_nu = Z / sqrt(W / nu), W ~ chi2_nu drawn from the uniform by its inverse CDF
-    w = chi2.ppf(np.clip(uniform, 1e-300, 1.0 - 1e-16), nu)
+    w = chi2_ppf(np.clip(uniform, 1e-300, 1.0 - 1e-16), nu)
     return normal / np.sqrt(w / nu) * math.sqrt((nu - 2.0) / nu)
