@@ -27,8 +27,15 @@ from slam.kinds.drone.models import (
     state_space,
 )
 from slam.kinds.drone.simulate import DroneLog
+from slam.kinds.drone.variants import (
+    GROUP_LAYOUT,
+    invariant_augmentation,
+    invariant_imu_transition,
+    invariant_observation,
+    split_variant,
+)
 from slam.mapping.association import gated_choice
-from slam.mapping.problem import SlamProblem, run_problem
+from slam.mapping.problem import SlamProblem, run_problem, world_belief
 
 IMU_ONLY = "imu_only"
 DRONE_LAYOUT = BlockLayout.of(state_space)
@@ -89,14 +96,20 @@ def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
 
 
 def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
-                  sensor_noise_scale: float = 1.0, noise_scale: float = 1.0) -> SlamProblem:
+                  sensor_noise_scale: float = 1.0, noise_scale: float = 1.0,
+                  variant: str | None = None) -> SlamProblem:
     """The drone log as a :class:`~slam.mapping.problem.SlamProblem`: epochs are the sensor
     epochs (``steps = 0..E-1``), one prediction per epoch through its IMU samples.
 
     ``imu_noise_scale`` / ``sensor_noise_scale`` multiply the IMU / sensor variances the
     filter assumes (world tuning); ``noise_scale`` multiplies every assumed variance,
     ``P0`` included (a plumbing check runs a noise-free log with a tiny one).
+    ``variant``: ``None`` (standard error) or ``"inv"`` (right-invariant group error,
+    :mod:`slam.kinds.drone.variants`).
     """
+    if variant not in (None, "inv"):
+        raise ValueError(f"unknown drone variant {variant!r}; choose inv")
+    inv = variant == "inv"
     noise = log.imu_noise.scaled(imu_noise_scale * noise_scale)
     obs_cov = log.obs_cov * (sensor_noise_scale * noise_scale)
     imu = np.asarray(log.steps)
@@ -105,18 +118,26 @@ def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
         k0, k1 = int(imu[e0]), int(imu[e1])
         u = (log.gyro[k0:k1], log.accel[k0:k1])
         n_lm = (b.mean.size - VEH_AMBIENT) // 3
-        return imu_transition(b.mean, n_lm, u[0], u[1], log.nav, noise), u
+        build = invariant_imu_transition if inv else imu_transition
+        return build(b.mean, n_lm, u[0], u[1], log.nav, noise), u
+
+    def observe(slots: Array, index: Array):
+        m = observation_model(slots, obs_cov)
+        return invariant_observation(m) if inv else m
+
+    def augment(n: int, z: Array, index: Array):
+        m = augmentation_model(n, z, obs_cov)
+        return invariant_augmentation(m) if inv else m
 
     def nearest(b: Belief, z: Array, n_lm: int, gates: tuple[float, float]) -> int | None:
-        return _nearest_neighbour(b, z, obs_cov, n_lm, gates)
+        return _nearest_neighbour(world_belief(b), z, obs_cov, n_lm, gates)
 
     return SlamProblem(
         x0=np.asarray(log.x0, dtype=float), P0=log.P0 * noise_scale,
         steps=np.arange(log.n_epochs), motion=motion, observations=log.observations_at(),
         obs=log.obs, obs_id=log.obs_id,
-        observe=lambda slots, index: observation_model(slots, obs_cov),
-        augment=lambda n, z, index: augmentation_model(n, z, obs_cov),
-        layout=DRONE_LAYOUT, truth=log.truth, position_dims=3,
+        observe=observe, augment=augment,
+        layout=GROUP_LAYOUT if inv else DRONE_LAYOUT, truth=log.truth, position_dims=3,
         nearest=nearest, record_rows=POSE_ROWS, true_landmarks=log.landmarks)
 
 
@@ -126,9 +147,16 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
                      noise_scale: float = 1.0, filter_params: dict | None = None,
                      mode: str = "joint") -> DroneEstimate:
     """Run one SINS/SLAM filter over ``log`` (module docstring) through the one SLAM loop
-    (:func:`slam.mapping.problem.run_problem`); noise scales as :func:`drone_problem`."""
+    (:func:`slam.mapping.problem.run_problem`); noise scales as :func:`drone_problem`.
+    ``filter_name`` may name a variant (``srckf-inv``: :mod:`slam.kinds.drone.variants`),
+    joint mode only."""
+    variant = split_variant(filter_name)[1]
+    if variant is not None and mode != "joint":
+        raise ValueError(f"{filter_name} runs in joint mode only (see "
+                         "slam.kinds.drone.variants)")
     problem = drone_problem(log, imu_noise_scale=imu_noise_scale,
-                            sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale)
+                            sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale,
+                            variant=variant)
     r = run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
                     diverge_m=diverge_m, filter_params=filter_params)
     x = r.poses

@@ -44,6 +44,7 @@ from slam.kinds.drone.reference import failed_reference, smooth_drone
 from slam.kinds.drone.scoring import score, summarize_scores, track_of
 from slam.kinds.drone.simulate import simulate_drone
 from slam.kinds.drone.truth import truth_of
+from slam.kinds.drone.variants import INVARIANT_BASES
 from slam.results import REFERENCE, RunOutcome
 
 FILTER_DESCRIPTIONS = {
@@ -56,6 +57,9 @@ FILTER_DESCRIPTIONS = {
     "srcdkf": "quaternion SRCDKF-SLAM: square-root central-difference filter",
     "svdckf": "cubature Kalman filter with an SVD-factored covariance",
 }
+FILTER_DESCRIPTIONS.update({
+    f"{b}-inv": f"{FILTER_DESCRIPTIONS[b]}; right-invariant error on SE_2+n(3) x IMU biases"
+    for b in INVARIANT_BASES})
 
 
 # --------------------------------------------------------------------------- one run
