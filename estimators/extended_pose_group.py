@@ -47,6 +47,7 @@ from typing import Literal
 
 import numpy as np
 
+from . import group_transport
 from .linalg import Array
 
 Side = Literal["right", "left"]
@@ -397,6 +398,22 @@ class ExtendedPoseGroup:
         out[:, tan] = B[:, tan] @ R
         return out
 
+
+    def retract_world(self, x: Array, delta_w: Array) -> Array:
+        """A world-chart correction made on the group
+        (:func:`estimators.group_transport.retract_world`)."""
+        return group_transport.retract_world(self, x, delta_w)
+
+    def transport(self, x_old: Array, x_new: Array, cov: Array | None = None,
+                  sqrt: Array | None = None) -> Array:
+        r"""A world-chart covariance (or its lower factor) carried from ``x_old`` to
+        ``x_new`` with the group error fixed (:func:`estimators.group_transport.transport`).
+        Right error only: :math:`T` rotates the attitude rows by :math:`R_{new}^\top R_{old}`
+        and adds multiples of them to the p, v and landmark rows, so in a lower factor it
+        touches columns 0-8 alone."""
+        if self.side != "right":
+            raise ValueError("the covariance transport is implemented for the right error")
+        return group_transport.transport(self, x_old, x_new, cov, sqrt, lead=9)
 
 def chain_jacobians(space_in: ExtendedPoseGroup, space_out: ExtendedPoseGroup, x: Array,
                     y: Array, F: Array, G: Array | None = None

@@ -39,6 +39,7 @@ from typing import Literal
 
 import numpy as np
 
+from . import group_transport
 from .linalg import Array
 from .spaces import wrap_angle
 
@@ -241,6 +242,26 @@ class SlamGroup:
         return out
 
 
+    def retract_world(self, x: Array, delta_w: Array) -> Array:
+        """A world-chart correction made on the group
+        (:func:`estimators.group_transport.retract_world`)."""
+        return group_transport.retract_world(self, x, delta_w)
+
+    def transport(self, x_old: Array, x_new: Array, cov: Array | None = None,
+                  sqrt: Array | None = None) -> Array:
+        r"""A world-chart covariance (or its lower factor) carried from ``x_old`` to
+        ``x_new`` with the group error fixed (:func:`estimators.group_transport.transport`).
+        Right error: :math:`T = I + Δa\,e_φ^\top` adds multiples of the heading row to the
+        position rows (in a lower factor, columns 0-2 only); left error:
+        :math:`T = \mathrm{blkdiag}(R(Δφ), 1, R(Δφ), \dots)` rotates every position's pair of
+        rows, each pair's 2×2 block then made triangular again (:math:`O(d^2)`)."""
+        return group_transport.transport(self, x_old, x_new, cov, sqrt,
+                                         lead=3 if self.side == "right" else None)
+
+    def lower_factor(self, S: Array) -> Array:
+        """``S`` with each position pair's 2×2 diagonal block made lower triangular."""
+        return _lower_pairs(S)
+
 def invariant_jacobians(space_in: SlamGroup, space_out: SlamGroup, x: Array, y: Array,
                         F: Array, G: Array | None = None) -> tuple[Array, Array | None]:
     r"""A transition's Jacobians in the standard chart, carried to the group's error by the
@@ -257,59 +278,6 @@ def invariant_h(space: SlamGroup, x: Array, H: Array) -> Array:
     r"""A measurement Jacobian in the standard chart carried to the group's error:
     :math:`H_ξ = H M(x)`."""
     return space.right_world(x, H)
-
-
-def retract_world(space: SlamGroup, x: Array, delta_w: Array) -> Array:
-    r""":math:`x \boxplus M(x)^{-1} δ_w`: a correction ``delta_w`` given in the world
-    chart ``(x, y, φ, l)``, applied on the group (the mean step of the invariant filter
-    whose covariance is kept in the world chart, :func:`transport`)."""
-    d = space.from_world(x, np.asarray(delta_w, dtype=float)[:, None])[:, 0]
-    return space.retract(np.asarray(x, dtype=float), d)
-
-
-def transport(space: SlamGroup, x_old: Array, x_new: Array, cov: Array | None = None,
-              sqrt: Array | None = None) -> Array:
-    r"""A world-chart covariance at ``x_old`` carried to ``x_new`` with the group error held
-    fixed: :math:`P' = T P T^\top`, :math:`T = M(x_{new}) M(x_{old})^{-1}`
-    (:meth:`SlamGroup.to_world`).
-
-    This is what makes a filter that keeps its covariance in the world chart the invariant
-    filter: the group error :math:`ξ` of a correction is unchanged by the move, while the
-    world-frame error it stands for, :math:`M(x)ξ`, depends on the estimate.  For the EKF
-    this (with :func:`retract_world` for the mean) *is* the invariant EKF: its
-    prediction, :math:`F_ξ = M(y)^{-1} F M(x)`, and update, :math:`K_ξ = M(x)^{-1} K_w`,
-    map to the standard ones in the world chart, so only the move of the estimate differs.
-
-    Give ``cov`` (dense, returns :math:`P'`) or ``sqrt`` (lower-triangular ``S``, vehicle
-    first; returns a lower-triangular factor of :math:`P'`).  Right error:
-    :math:`T = I + Δa\,e_φ^\top` (:math:`Δa = a(x_{new}) - a(x_{old})`) adds multiples of
-    the heading row to the position rows; left error: :math:`T = \mathrm{blkdiag}(R(Δφ), 1,
-    R(Δφ), \dots)` rotates every position's pair of rows.  The factor's few non-triangular
-    entries (rows/columns 0-2, resp. each pair's 2×2 block) are cleared by an orthogonal
-    transform of those columns: :math:`O(d)` arithmetic (right) or :math:`O(d^2)` (left).
-    """
-    x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
-
-    def T(A: Array) -> Array:
-        return space.to_world(x_new, space.from_world(x_old, A))
-
-    if cov is not None:
-        return T(T(np.asarray(cov, dtype=float)).T)
-    if space.side == "right":   # row φ of a lower factor is zero past column 2: T acts there
-        S = np.array(sqrt, dtype=float, copy=True)
-        S[:, :3] = _lower_block(T(S[:, :3]))
-        S[0, 1:3] = S[1, 2] = 0.0
-        return S
-    return _lower_pairs(T(np.asarray(sqrt, dtype=float)))
-
-
-def _lower_block(cols: Array) -> Array:
-    """``cols @ Q`` (n, k) with its leading (k, k) square made lower triangular (LQ),
-    positive diagonal."""
-    k = cols.shape[1]
-    Q, R = np.linalg.qr(cols[:k].T)
-    Q = Q * np.where(np.diagonal(R) < 0.0, -1.0, 1.0)
-    return cols @ Q
 
 
 def _lower_pairs(S: Array) -> Array:

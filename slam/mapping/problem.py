@@ -39,7 +39,6 @@ from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from estimators.partitioned import BlockLayout
-from estimators.slam_group import retract_world, transport
 from slam.mapping.map_series import MapRecorder, MapSeries, vehicle_variances
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
@@ -120,9 +119,9 @@ class SlamProblem:
         only for scoring the map per epoch (:class:`~slam.mapping.map_series.MapSeries`).
     group : local mode with a group error (``<filter>-inv`` in local mode): ``n -> space``
         of the group (e.g. :class:`~estimators.slam_group.SlamGroup`) whose error the
-        filter keeps; the belief stays in the world chart of ``layout`` and every correction
-        is moved on the group with its covariance transported
-        (:func:`~estimators.slam_group.transport`).  ``None``: no transport.
+        filter keeps (a space with ``retract_world`` and ``transport``); the belief stays in the
+        world chart of ``layout`` and every correction is moved on the group with its
+        covariance transported (:mod:`estimators.group_transport`).  ``None``: no transport.
     """
 
     x0: Array
@@ -188,13 +187,13 @@ class _LocalSteps:
 
 def _on_group(space: Any, prior: Belief, post: Belief) -> Belief:
     """``post`` (world chart) with its correction made on the group ``space`` and its
-    covariance transported there (:func:`~estimators.slam_group.transport`): the invariant
+    covariance transported there (:mod:`estimators.group_transport`): the invariant
     filter's update, to first order (exactly, for the EKF)."""
     x = prior.mean
-    mean = retract_world(space, x, prior.space.local(x, post.mean))
+    mean = space.retract_world(x, prior.space.local(x, post.mean))
     if isinstance(post, SqrtGaussian):
-        return SqrtGaussian(mean, transport(space, x, mean, sqrt=post.sqrt), post.space)
-    return Gaussian(mean, transport(space, x, mean, cov=post.cov), post.space)
+        return SqrtGaussian(mean, space.transport(x, mean, sqrt=post.sqrt), post.space)
+    return Gaussian(mean, space.transport(x, mean, cov=post.cov), post.space)
 
 
 def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",

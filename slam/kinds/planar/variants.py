@@ -20,7 +20,7 @@ In ``local`` mode (:mod:`estimators.partitioned`) ``-inv`` / ``-linv`` keep the 
 in the world chart, where the partitioned steps touch only the blocks a step names (with the
 group error a prediction would move every landmark's error coordinates), and make every
 correction on the group with the covariance transported to the new estimate
-(:func:`estimators.slam_group.transport`, :func:`problem_for`).  For the EKF this is the
+(:mod:`estimators.group_transport`, :func:`problem_for`).  For the EKF this is the
 invariant EKF exactly (equal to joint mode to round-off, a test); for the sigma-point filters
 the points are drawn in the world chart, so it equals joint mode to first order.
 ``ekf-fej`` is joint only (local mode's measurement sees block slots, not the landmarks'

@@ -1,0 +1,65 @@
+r"""Invariant filtering with the covariance kept in the world chart: the correction made on
+the group and the covariance transported to the new estimate (local mode's invariant
+variants, :mod:`estimators.partitioned`).
+
+A group space (:class:`~estimators.slam_group.SlamGroup`,
+:class:`~estimators.extended_pose_group.ExtendedPoseGroup`) relates its error :math:`ξ`
+to the world-chart error by :math:`δ = M(x)ξ` (``to_world``).  A filter holding the
+world-chart covariance :math:`P_w(x) = M(x) P_ξ M(x)^\top` is the invariant filter if, each
+time the estimate moves without new information (a correction), the mean moves on the group,
+:math:`x^+ = x \boxplus M(x)^{-1} δ_w` (:func:`retract_world`), and the covariance follows
+with the error held fixed, :math:`P' = T P T^\top`, :math:`T = M(x^+) M(x)^{-1}`
+(:func:`transport`).  For the EKF this is exact: its prediction
+:math:`F_ξ = M(y)^{-1} F M(x)` and update :math:`K_ξ = M(x)^{-1} K_w` are the standard ones
+seen in the world chart; only the move of the estimate differs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .linalg import Array
+
+
+def retract_world(space: Any, x: Array, delta_w: Array) -> Array:
+    r""":math:`x \boxplus M(x)^{-1} δ_w`: a correction ``delta_w`` (world chart) made on the
+    group."""
+    d = space.from_world(x, np.asarray(delta_w, dtype=float)[:, None])[:, 0]
+    return space.retract(np.asarray(x, dtype=float), d)
+
+
+def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
+              sqrt: Array | None = None, lead: int | None = None) -> Array:
+    r""":math:`P' = T P T^\top`, :math:`T = M(x_{new}) M(x_{old})^{-1}`: the dense ``cov``
+    transported, or a lower-triangular factor of it from the factor ``sqrt``.
+
+    ``lead`` (factor form): the leading tangent columns :math:`T` touches.  With the right
+    error :math:`T` adds to every row multiples of the rotation rows (and rotates those),
+    which in a lower-triangular factor with the vehicle first are zero past the rotation's
+    last column; so only those columns change and one LQ of their leading square restores
+    the triangle: :math:`O(d)` arithmetic.  ``None``: the space's own ``lower_factor``
+    re-triangularises :math:`TS`."""
+    x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
+
+    def T(A: Array) -> Array:
+        return space.to_world(x_new, space.from_world(x_old, A))
+
+    if cov is not None:
+        return T(T(np.asarray(cov, dtype=float)).T)
+    if lead is None:
+        return space.lower_factor(T(np.asarray(sqrt, dtype=float)))
+    S = np.array(sqrt, dtype=float, copy=True)
+    S[:, :lead] = lower_block(T(S[:, :lead]))
+    return S
+
+
+def lower_block(cols: Array) -> Array:
+    """``cols @ Q`` (n, k) with its leading (k, k) square made lower triangular (LQ),
+    positive diagonal, exact zeros above it."""
+    k = cols.shape[1]
+    Q, R = np.linalg.qr(cols[:k].T)
+    out = cols @ (Q * np.where(np.diagonal(R) < 0.0, -1.0, 1.0))
+    out[:k] = np.tril(out[:k])
+    return out
