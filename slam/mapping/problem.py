@@ -29,7 +29,7 @@ the result; it never raises out of :func:`run_slam` / :func:`run_problem`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -195,6 +195,19 @@ def _on_group(space: Any, prior: Belief, post: Belief) -> Belief:
         return SqrtGaussian(mean, space.transport(x, mean, sqrt=post.sqrt), post.space)
     return Gaussian(mean, space.transport(x, mean, cov=post.cov), post.space)
 
+
+def variant_problem(make: Callable[[str | None], SlamProblem], filter_name: str,
+                    variant: str | None, mode: str, local_names: tuple[str, ...],
+                    group: Callable[[int], Any] | None) -> SlamProblem:
+    """The problem ``make(variant)`` of ``filter_name`` (``<base>-<variant>``) in ``mode``.
+    In local mode a group-error variant runs the standard problem, ``make(None)``, with
+    ``group`` set (its covariance kept in the world chart and transported, see
+    :class:`SlamProblem`); a name not in ``local_names`` raises ``ValueError``."""
+    if mode != "local" or variant is None:
+        return make(variant)
+    if filter_name not in local_names or group is None:
+        raise ValueError(f"{filter_name} has no local mode (local: {', '.join(local_names)})")
+    return replace(make(None), group=group)
 
 def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
                 association: str = "known", gates: tuple[float, float] = (4.0, 25.0),

@@ -28,14 +28,16 @@ from slam.kinds.drone.models import (
 )
 from slam.kinds.drone.simulate import DroneLog
 from slam.kinds.drone.variants import (
+    DRONE_LOCAL_FILTERS,
     GROUP_LAYOUT,
+    group_space,
     invariant_augmentation,
     invariant_imu_transition,
     invariant_observation,
     split_variant,
 )
 from slam.mapping.association import gated_choice
-from slam.mapping.problem import SlamProblem, run_problem, world_belief
+from slam.mapping.problem import SlamProblem, run_problem, variant_problem, world_belief
 
 IMU_ONLY = "imu_only"
 DRONE_LAYOUT = BlockLayout.of(state_space)
@@ -148,15 +150,14 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
                      mode: str = "joint") -> DroneEstimate:
     """Run one SINS/SLAM filter over ``log`` (module docstring) through the one SLAM loop
     (:func:`slam.mapping.problem.run_problem`); noise scales as :func:`drone_problem`.
-    ``filter_name`` may name a variant (``srckf-inv``: :mod:`slam.kinds.drone.variants`),
-    joint mode only."""
+    ``filter_name`` may name a variant (``srckf-inv``: :mod:`slam.kinds.drone.variants`;
+    local mode for ekf, srckf, srukf and srcdkf)."""
     variant = split_variant(filter_name)[1]
-    if variant is not None and mode != "joint":
-        raise ValueError(f"{filter_name} runs in joint mode only (see "
-                         "slam.kinds.drone.variants)")
-    problem = drone_problem(log, imu_noise_scale=imu_noise_scale,
-                            sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale,
-                            variant=variant)
+    problem = variant_problem(
+        lambda v: drone_problem(log, imu_noise_scale=imu_noise_scale,
+                                sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale,
+                                variant=v),
+        filter_name, variant, mode, DRONE_LOCAL_FILTERS, group_space)
     r = run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
                     diverge_m=diverge_m, filter_params=filter_params)
     x = r.poses

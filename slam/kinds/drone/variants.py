@@ -20,9 +20,12 @@ with :math:`M(x) = \partial(\text{standard error})/\partial ξ`:
 With right-invariant error the four unobservable directions of SINS/SLAM - a rotation of
 the scene about gravity and the three translations - are the same tangent vectors at
 every estimate, so the EKF's Jacobians cannot gain spurious information along them
-(:func:`unobservable_directions`).  The variants run in ``joint`` mode only: a prediction
-changes every landmark's error coordinates (:math:`Q_ξ` has map rows), which the
-partitioned (``local``) steps assume never happens.  Covariances are reported in the
+(:func:`unobservable_directions`).  In ``local`` mode (ekf, srckf, srukf, srcdkf) a
+prediction cannot run in the group error (it changes every landmark's error coordinates,
+:math:`Q_ξ` has map rows, which the partitioned steps assume never happens): there the
+covariance stays in the standard chart and each correction is made on the group with the
+covariance transported (:mod:`estimators.group_transport`; the EKF equals joint mode to
+round-off, the sigma-point filters to first order).  Covariances are reported in the
 drone's standard chart to first order (``to_world``).
 """
 
@@ -37,7 +40,7 @@ from estimators.extended_pose_group import ExtendedPoseGroup, chain_jacobians
 from estimators.filters import FILTER_NAMES
 from estimators.linalg import Array
 from estimators.models import Measurement, Transition
-from estimators.partitioned import BlockLayout
+from estimators.partitioned import PARTITIONED_FILTERS, BlockLayout
 from slam.kinds.drone.models import (
     VEH_AMBIENT,
     VEH_DIM,
@@ -53,6 +56,9 @@ INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf
 VARIANT_NAMES: tuple[str, ...] = tuple(f"{b}-inv" for b in INVARIANT_BASES)
 #: Every filter name a drone world accepts.
 DRONE_FILTERS: tuple[str, ...] = FILTER_NAMES + VARIANT_NAMES
+#: Every filter name a drone world accepts in local mode.
+DRONE_LOCAL_FILTERS: tuple[str, ...] = PARTITIONED_FILTERS + tuple(
+    f"{b}-inv" for b in INVARIANT_BASES if b in PARTITIONED_FILTERS)
 VARIANTS: tuple[str, ...] = ("inv",)
 
 

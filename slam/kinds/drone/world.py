@@ -30,7 +30,8 @@ File layout::
                line_of_sight, los_margin_m
     [filters]  names (also srckf-inv, ekf-inv, ...: slam/kinds/drone/variants.py),
                association ("known" | "nn"), gate_accept, gate_new, mode ("joint" | "local";
-               the variants are joint only), imu_noise_scale, sensor_noise_scale, divergence_m
+               local: ekf, srckf, srukf, srcdkf and their -inv), imu_noise_scale,
+               sensor_noise_scale, divergence_m
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 IMU defaults are industrial MEMS grade (a calibrated flight-controller IMU): gyro
@@ -49,14 +50,14 @@ from importlib.resources.abc import Traversable
 from typing import Any
 
 import worlds.schema as ws
-from estimators import PARTITIONED_FILTERS
-from slam.kinds.drone.variants import DRONE_FILTERS
+from slam.kinds.drone.variants import DRONE_FILTERS, DRONE_LOCAL_FILTERS
 from slam.kinds.planar.world import (
     COORD,
     GATES,
     MapSpec,
     check_bounds,
     check_inside,
+    check_local_mode,
     filters_section,
     start_pose,
 )
@@ -413,15 +414,6 @@ def check_sizes(w: DroneWorld, root: ws.Where) -> None:
         raise root.child("filters.mode").error(msg)
 
 
-def check_local_mode(fil: dict[str, Any], at: ws.Where) -> None:
-    """``mode = "local"`` only with filters that have a drone local mode (the partitioned
-    ones; not the invariant variants)."""
-    no_local = [n for n in fil["names"] if n not in PARTITIONED_FILTERS]
-    if fil["mode"] == "local" and no_local:
-        raise at.error(f"local mode supports {', '.join(PARTITIONED_FILTERS)} only, not "
-                       f"{', '.join(no_local)} (use mode = \"joint\")", fil["mode"])
-
-
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> DroneWorld:
     """Validate a parsed ``drone-slam`` TOML document and build its :class:`DroneWorld`.
@@ -439,7 +431,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
             raise at_map.child(key).error(f"needs at least {least}", m[key].tolist())
     sx, sy, heading = start_pose(v["vehicle"], m["bounds_m"], m["waypoints"],
                                  root.child("vehicle"))
-    check_local_mode(v["filters"], root.child("filters.mode"))  # the drone's own list
+    check_local_mode(v["filters"], root.child("filters.mode"), DRONE_LOCAL_FILTERS)
     ws.check_rules(RULES, v, root)
     world = ws.build(
         WORLD, v, name=name, source=source,

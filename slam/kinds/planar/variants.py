@@ -42,6 +42,7 @@ from estimators.linalg import Array
 from estimators.models import Measurement, Transition
 from estimators.partitioned import PARTITIONED_FILTERS
 from estimators.slam_group import SlamGroup, invariant_h, invariant_jacobians
+from slam.mapping.problem import variant_problem
 
 #: Variant suffixes and the filters each applies to.
 INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf")
@@ -67,16 +68,12 @@ def split_variant(name: str) -> tuple[str, str | None]:
 
 
 def problem_for(make: Callable[[str | None], Any], filter_name: str, mode: str) -> Any:
-    """The problem ``make(variant)`` for ``filter_name`` in ``mode``: in local mode a
-    group-error variant runs the standard problem with ``group`` set (module docstring);
-    a name without a local mode raises ``ValueError``."""
+    """The planar problem ``make(variant)`` of ``filter_name`` in ``mode``
+    (:func:`slam.mapping.problem.variant_problem`: local mode runs ``-inv`` / ``-linv`` on
+    the standard problem with the group's transport)."""
     variant = split_variant(filter_name)[1]
-    if mode == "joint" or variant is None:
-        return make(variant)
-    if variant not in SIDES or filter_name not in PLANAR_LOCAL_FILTERS:
-        raise ValueError(f"{filter_name} has no local mode (local: "
-                         f"{', '.join(PLANAR_LOCAL_FILTERS)})")
-    return replace(make(None), group=group_space_of(SIDES[variant]))
+    group = group_space_of(SIDES[variant]) if variant in SIDES else None
+    return variant_problem(make, filter_name, variant, mode, PLANAR_LOCAL_FILTERS, group)
 
 
 def group_space_of(side: str):

@@ -337,11 +337,12 @@ def _map_points(m: dict[str, Any], base: Traversable | None, at_map: ws.Where
     return points
 
 
-def check_local_mode(fil: dict[str, Any], at: ws.Where) -> None:
-    """``mode = "local"`` only with filters that have a local mode."""
-    no_local = [n for n in fil["names"] if n not in LOCAL_FILTERS]
+def check_local_mode(fil: dict[str, Any], at: ws.Where,
+                     local: tuple[str, ...] = LOCAL_FILTERS) -> None:
+    """``mode = "local"`` only with filters that have a local mode (``local``)."""
+    no_local = [n for n in fil["names"] if n not in local]
     if fil["mode"] == "local" and no_local:
-        rule = (f"local mode supports {', '.join(LOCAL_FILTERS)} only, not "
+        rule = (f"local mode supports {', '.join(local)} only, not "
                 f"{', '.join(no_local)} (use mode = \"joint\")")
         raise at.error(rule, fil["mode"])
 

@@ -200,16 +200,50 @@ def test_names_reach_the_kind_and_world_files():
     assert split_variant("srckf") == ("srckf", None)
     k = get_kind("drone-slam")
     assert set(VARIANT_NAMES) <= set(k.filters)
-    assert not set(VARIANT_NAMES) & set(k.mode_filters["local"])
+    local = set(k.mode_filters["local"])
+    assert {"ekf-inv", "srckf-inv", "srukf-inv", "srcdkf-inv"} <= local
+    assert not {"ckf-inv", "ukf-inv", "cdkf-inv"} & local
     w = small_drone_world(filters={"names": ["srckf-inv", "ekf"]})
     assert list(w.filters.names) == ["srckf-inv", "ekf"]
+    w = small_drone_world(filters={"names": ["srckf-inv"], "mode": "local"})
+    assert w.filters.mode == "local"
     with pytest.raises(ValueError, match="joint"):
-        small_drone_world(filters={"names": ["srckf-inv"], "mode": "local"})
+        small_drone_world(filters={"names": ["ckf-inv"], "mode": "local"})
 
 
-def test_variants_refuse_local_mode(noise_free_log):
-    with pytest.raises(ValueError, match="joint mode only"):
-        run_drone_filter(noise_free_log, "srckf-inv", mode="local")
+def test_names_without_a_local_mode_are_refused(noise_free_log):
+    with pytest.raises(ValueError, match="has no local mode"):
+        run_drone_filter(noise_free_log, "ckf-inv", mode="local")
+
+
+@pytest.fixture(scope="module")
+def noisy_log():
+    w = small_drone_world(map={"bounds_m": [-20.0, 50.0, -20.0, 50.0],
+                               "landmarks": [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0],
+                                             [-6.0, 15.0]], **HALF_LOOP})
+    return simulate_drone(w, np.random.default_rng(3))
+
+
+def test_local_invariant_ekf_equals_joint_mode(noisy_log):
+    """Local mode keeps the covariance in the standard chart and transports it after each
+    correction: for the EKF that is the invariant EKF exactly."""
+    a = run_drone_filter(noisy_log, "ekf-inv", mode="joint")
+    b = run_drone_filter(noisy_log, "ekf-inv", mode="local")
+    assert not a.diverged and not b.diverged
+    assert np.abs(a.p - b.p).max() < 1e-9
+    assert np.abs(a.landmarks - b.landmarks).max() < 1e-9
+    assert np.abs(a.pose_cov - b.pose_cov).max() < 1e-9 * np.abs(a.pose_cov).max()
+    std = run_drone_filter(noisy_log, "ekf", mode="local")   # the transport is not a no-op
+    assert np.abs(std.p - b.p).max() > 1e-6
+
+
+def test_local_invariant_srckf_near_joint_mode(noisy_log):
+    """Sigma points drawn in the standard chart: equal to joint mode to first order."""
+    a = run_drone_filter(noisy_log, "srckf-inv", mode="joint")
+    b = run_drone_filter(noisy_log, "srckf-inv", mode="local")
+    sd = np.sqrt(a.pose_cov[-1, 0, 0])
+    assert np.abs(a.p - b.p).max() < 0.1 * sd
+    assert np.abs(a.pose_cov - b.pose_cov).max() < 0.05 * np.abs(a.pose_cov).max()
 
 
 def test_group_space_keeps_the_drone_layout():
