@@ -35,19 +35,31 @@ def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
     r""":math:`P' = T P T^\top`, :math:`T = M(x_{new}) M(x_{old})^{-1}`: the dense ``cov``
     transported, or a lower-triangular factor of it from the factor ``sqrt``.
 
-    ``lead`` (factor form): the leading tangent columns :math:`T` touches.  With the right
-    error :math:`T` adds to every row multiples of the rotation rows (and rotates those),
-    which in a lower-triangular factor with the vehicle first are zero past the rotation's
-    last column; so only those columns change and one LQ of their leading square restores
-    the triangle: :math:`O(d)` arithmetic.  ``None``: the space's own ``lower_factor``
-    re-triangularises :math:`TS`."""
+    ``lead``: with the right error :math:`T` adds to every row multiples of the rotation rows
+    (and rotates those), so :math:`T = I + E` with :math:`E` zero past the rotation's last
+    column ``lead``.  Dense: :math:`P' = P + E P_{l\cdot} + (E P_{l\cdot})^\top + E P_{ll}
+    E^\top` (:math:`O(\mathrm{lead}\cdot d^2)`).  Factor: the rotation rows of a
+    lower-triangular factor with the vehicle first are zero past that column, so only the
+    first ``lead`` columns change and one LQ of their leading square restores the triangle
+    (:math:`O(d)` arithmetic).  ``None``: :math:`T(TP)^\top`, and the space's own
+    ``lower_factor`` re-triangularises :math:`TS`."""
     x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
 
     def T(A: Array) -> Array:
         return space.to_world(x_new, space.from_world(x_old, A))
 
     if cov is not None:
-        return T(T(np.asarray(cov, dtype=float)).T)
+        P = np.asarray(cov, dtype=float)
+        if lead is None:
+            return T(T(P).T)
+        # T = I + E with E zero past column ``lead``: P' = P + EP_l + (EP_l)ᵀ + E P_ll Eᵀ
+        E = T(np.eye(P.shape[0])[:, :lead])
+        E[:lead] -= np.eye(lead)
+        EP = E @ P[:lead]
+        out = P + EP
+        out += EP.T
+        out += E @ P[:lead, :lead] @ E.T
+        return out
     if lead is None:
         return space.lower_factor(T(np.asarray(sqrt, dtype=float)))
     S = np.array(sqrt, dtype=float, copy=True)
