@@ -190,6 +190,19 @@ def jl_apply(phi: Array, u: Array, inverse: bool = False) -> Array:
     return np.matmul(u, _T(jl_matrix(phi, inverse)))
 
 
+def _rotate_shared(u: Array, R: Array) -> Array:
+    """``u @ R_iᵀ`` for one set of vectors ``u`` (k, 3) and rotations ``R`` (m, 3, 3):
+    (m, k, 3), as one matrix product (``np.matmul`` of small stacks is several times
+    slower)."""
+    m = R.shape[0]
+    return (R.reshape(3 * m, 3) @ u.T).reshape(m, 3, -1).transpose(0, 2, 1)
+
+
+def _sum_products(A: Array, B: Array) -> Array:
+    r""":math:`\sum_i A_i B_i` for stacks (m, a, 3) and (m, 3, b), as one matrix product."""
+    m, a, _ = A.shape
+    return A.transpose(1, 0, 2).reshape(a, 3 * m) @ B.reshape(3 * m, -1)
+
 # --------------------------------------------------------------------------- the space
 
 @lru_cache(maxsize=256)
@@ -262,13 +275,26 @@ class ExtendedPoseGroup:
 
     def retract(self, x: Array, delta: Array) -> Array:
         x, d = np.asarray(x, dtype=float), np.asarray(delta, dtype=float)
+        if self.side == "right" and x.ndim == 1 and d.ndim == 2:
+            turn = np.any(d[:, 6:9] != 0.0, axis=1)
+            if not turn.all():   # Exp(0) = I, J_l(0) = I: Exp(ξ)X translates every vector
+                out = np.repeat(x[None], d.shape[0], axis=0)
+                out[:, self._amb.ravel()] += d[:, self._tan.ravel()]
+                out[:, self._bias[0]] += d[:, self._bias[1]]
+                out[turn] = self._retract(x, d[turn])
+                return out
+        return self._retract(x, d)
+
+    def _retract(self, x: Array, d: Array) -> Array:
         th = d[..., 6:9]
         dq = qexp(th)
         q, u = x[..., 6:10], x[..., self._amb]
         ju = jl_apply(th, d[..., self._tan])
         if self.side == "right":   # exp(ξ) X
             qn = qmul(dq, q)
-            new = np.matmul(u, _T(qdcm(dq))) + ju
+            R = qdcm(dq)
+            new = (_rotate_shared(u, R) if u.ndim == 2 and R.ndim == 3
+                   else np.matmul(u, _T(R))) + ju
         else:                      # X exp(ξ)
             qn = qmul(q, dq)
             new = u + np.matmul(ju, _T(qdcm(q)))
@@ -281,7 +307,9 @@ class ExtendedPoseGroup:
         ux, uy = x[..., self._amb], y[..., self._amb]
         if self.side == "right":   # log(Y X⁻¹)
             dq = qmul(qy, qconj(qx))
-            du = uy - np.matmul(ux, _T(qdcm(dq)))
+            R = qdcm(dq)
+            du = uy - (_rotate_shared(ux, R) if ux.ndim == 2 and R.ndim == 3
+                       else np.matmul(ux, _T(R)))
         else:                      # log(X⁻¹ Y)
             dq = qmul(qconj(qx), qy)
             du = np.matmul(uy - ux, qdcm(qx))
@@ -339,8 +367,8 @@ class ExtendedPoseGroup:
         if self.side == "right":
             dq = qmul(pts[:, 6:10], qconj(qbar))
             J = jl_matrix(qlog(dq), inverse=True) * w[:, None, None]
-            A = np.matmul(J, qdcm(dq)).sum(axis=0)
-            rhs = np.matmul(u, _T(J)).sum(axis=0)
+            A = _sum_products(J, qdcm(dq))
+            rhs = _sum_products(u, _T(J))
         else:
             dq = qmul(qconj(qbar), pts[:, 6:10])
             J = jl_matrix(qlog(dq), inverse=True) * w[:, None, None]
@@ -414,6 +442,7 @@ class ExtendedPoseGroup:
         if self.side != "right":
             raise ValueError("the covariance transport is implemented for the right error")
         return group_transport.transport(self, x_old, x_new, cov, sqrt, lead=9)
+
 
 def chain_jacobians(space_in: ExtendedPoseGroup, space_out: ExtendedPoseGroup, x: Array,
                     y: Array, F: Array, G: Array | None = None
