@@ -3,7 +3,7 @@ the group and the covariance transported to the new estimate (local mode's invar
 variants, :mod:`estimators.partitioned`).
 
 A group space (:class:`~estimators.slam_group.SlamGroup`,
-:class:`~estimators.extended_pose_group.ExtendedPoseGroup`) relates its error :math:`ξ`
+:class:`~nav.extended_pose_group.ExtendedPoseGroup`) relates its error :math:`ξ`
 to the world-chart error by :math:`δ = M(x)ξ` (``to_world``).  A filter holding the
 world-chart covariance :math:`P_w(x) = M(x) P_ξ M(x)^\top` is the invariant filter if, each
 time the estimate moves without new information (a correction), the mean moves on the group,

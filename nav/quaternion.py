@@ -87,14 +87,10 @@ def skew(v: ArrayLike) -> Array:
     Shapes: ``v`` (..., 3) → (..., 3, 3).
     """
     v = _f(v)
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack(
-        [np.stack([o, -z, y], axis=-1),
-         np.stack([z, o, -x], axis=-1),
-         np.stack([-y, x, o], axis=-1)],
-        axis=-2,
-    )
+    S = np.zeros(v.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return S
 
 
 def qmul(p: ArrayLike, q: ArrayLike) -> Array:

@@ -3,7 +3,7 @@ r"""Invariant-error variants of the drone's SINS/SLAM filters: what ``<filter>-i
 Design (as :mod:`slam.kinds.planar.variants`): a variant is not new filter code.
 ``srckf-inv`` is the SRCKF on a problem whose state space is the extended-pose SLAM group
 :math:`SE_{2+n}(3)` with the IMU biases beside it and right-invariant error
-(:class:`estimators.extended_pose_group.ExtendedPoseGroup`; the "imperfect" invariant
+(:class:`nav.extended_pose_group.ExtendedPoseGroup`; the "imperfect" invariant
 filter of Barrau & Bonnabel 2017, with sigma points Brossard et al. 2020).  The ambient
 state and the tangent order are the drone's, so the mechanisation, the range / azimuth /
 elevation model, the inverse observation, the slices and the scores are unchanged.  What
@@ -36,11 +36,11 @@ from functools import cached_property
 
 import numpy as np
 
-from estimators.extended_pose_group import ExtendedPoseGroup, chain_jacobians
 from estimators.filters import FILTER_NAMES
 from estimators.linalg import Array
 from estimators.models import Measurement, Transition
 from estimators.partitioned import PARTITIONED_FILTERS, BlockLayout
+from nav.extended_pose_group import ExtendedPoseGroup, chain_jacobians
 from slam.kinds.drone.models import (
     VEH_AMBIENT,
     VEH_DIM,

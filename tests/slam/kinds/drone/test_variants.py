@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.extended_pose_group import ExtendedPoseGroup
 from estimators.linearise import numerical_jacobian
+from nav.extended_pose_group import ExtendedPoseGroup
 from nav.quaternion import qexp
 from slam.kinds.drone import filtering
 from slam.kinds.drone import models as dm

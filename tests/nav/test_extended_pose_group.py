@@ -1,5 +1,5 @@
 """The extended-pose SLAM group space :math:`SE_{2+n}(3)` × biases
-(:mod:`estimators.extended_pose_group`): closed-form Exp/Log against the matrix
+(:mod:`nav.extended_pose_group`): closed-form Exp/Log against the matrix
 exponential, retract/local round trips near 0 and near π, the barycentre of symmetric
 clouds, the map to the standard chart against finite differences."""
 
@@ -14,16 +14,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from estimators import Euclidean, Product
-from estimators.extended_pose_group import (
+from nav.extended_pose_group import (
     ExtendedPoseGroup,
     MeanNotConvergedError,
     chain_jacobians,
     jl_apply,
-    qdcm,
-    qexp,
-    skew,
 )
+from nav.quaternion import qexp, skew
 from nav.spaces import UnitQuaternion
+from nav.strapdown import dcm_unit as qdcm
 
 N = 2                                  # landmarks: tangent dimension 21, matrices 7 × 7
 DIM = 15 + 3 * N

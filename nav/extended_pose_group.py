@@ -35,8 +35,7 @@ x \boxplus ξ)/\partial ξ|_0`, the standard error being ``[δp, δv, δθ_body,
 :math:`q = \hat q \otimes \mathrm{Exp}(δθ)`.  Right: :math:`δθ = R^\top ξ_θ`,
 :math:`δu = ξ_u - [u]_\times ξ_θ`; left: :math:`δθ = ξ_θ`, :math:`δu = R ξ_u`.
 
-This module is numpy only (``estimators`` does not import ``nav``), so it carries its own
-few quaternion formulas.
+Quaternion formulas are :mod:`nav.quaternion`'s (the unit DCM :func:`nav.strapdown.dcm_unit`).
 """
 
 from __future__ import annotations
@@ -47,8 +46,11 @@ from typing import Literal
 
 import numpy as np
 
-from . import group_transport
-from .linalg import Array
+from estimators import group_transport
+from estimators.linalg import Array
+
+from .quaternion import qconj, qexp, qlog, qmul, skew
+from .strapdown import dcm_unit as qdcm
 
 Side = Literal["right", "left"]
 
@@ -62,24 +64,6 @@ class MeanNotConvergedError(ArithmeticError):
 
 # --------------------------------------------------------------------------- SO(3) kit
 
-def _cross(a: Array, b: Array) -> Array:
-    """Cross product over the last axis, broadcast (cheaper than ``np.cross`` on small
-    arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def qmul(a: Array, b: Array) -> Array:
-    """Hamilton product of scalar-first quaternions (..., 4), broadcast."""
-    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
-
-
 def _T(A: Array) -> Array:
     """Batched transpose of matrices (..., i, j)."""
     return np.swapaxes(A, -1, -2)
@@ -89,55 +73,6 @@ def _qleft(a: Array) -> Array:
     """The (4, 4) matrix of left multiplication by one quaternion: ``a ⊗ b = L(a) b``."""
     w, x, y, z = a
     return np.array([[w, -x, -y, -z], [x, w, -z, y], [y, z, w, -x], [z, -y, x, w]])
-
-
-def qconj(q: Array) -> Array:
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def qexp(phi: Array) -> Array:
-    r""":math:`\mathrm{Exp}(φ) = [\cos\tfrac t2,\ \tfrac{\sin(t/2)}{t} φ]`, ``t = |φ|``
-    (the limit 1/2 at 0; no cancellation anywhere)."""
-    phi = np.asarray(phi, dtype=float)
-    t = np.sqrt(np.einsum("...i,...i->...", phi, phi))[..., None]
-    k = np.divide(np.sin(0.5 * t), t, out=np.full(t.shape, 0.5), where=t > 0.0)
-    return np.concatenate([np.cos(0.5 * t), k * phi], axis=-1)
-
-
-def qlog(q: Array) -> Array:
-    r"""Rotation vector of a unit quaternion, :math:`|φ| \le π`:
-    :math:`2\,\mathrm{atan2}(|v|, w)\,v/|v|` on the :math:`w \ge 0` representative
-    (atan2: full accuracy near 0 and near π; the limit :math:`2/w` at :math:`v = 0`)."""
-    q = np.asarray(q, dtype=float)
-    s = np.where(q[..., :1] < 0.0, -1.0, 1.0)
-    w, v = s[..., 0] * q[..., 0], s * q[..., 1:]
-    n = np.linalg.norm(v, axis=-1)
-    k = np.divide(2.0 * np.arctan2(n, w), n, out=np.array(2.0 / np.maximum(w, 1e-300)),
-                  where=n > 0.0)
-    return k[..., None] * v
-
-
-def qdcm(q: Array) -> Array:
-    """Rotation matrix (..., 3, 3) of unit quaternions (..., 4)."""
-    q = np.asarray(q, dtype=float)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    R = np.empty(q.shape[:-1] + (3, 3))
-    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), \
-        2 * (x * z + w * y)
-    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), \
-        2 * (y * z - w * x)
-    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), \
-        1 - 2 * (x * x + y * y)
-    return R
-
-
-def skew(u: Array) -> Array:
-    """:math:`[u]_\\times` of vectors (..., 3): (..., 3, 3)."""
-    u = np.asarray(u, dtype=float)
-    S = np.zeros(u.shape + (3,))
-    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -u[..., 2], u[..., 1], -u[..., 0]
-    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = u[..., 2], -u[..., 1], u[..., 0]
-    return S
 
 
 def jl_matrix(phi: Array, inverse: bool = False) -> Array:
