@@ -75,3 +75,22 @@ def lower_block(cols: Array) -> Array:
     out = cols @ (Q * np.where(np.diagonal(R) < 0.0, -1.0, 1.0))
     out[:k] = np.tril(out[:k])
     return out
+
+
+class WorldChartGroup:
+    """What a group space with ``to_world`` / ``from_world`` / ``retract`` gains for local
+    mode: :meth:`retract_world` and :meth:`transport`.  The space says which leading tangent
+    columns a right-error transport touches (``transport_lead``; ``None``: its own
+    ``lower_factor`` re-triangularises)."""
+
+    transport_lead: int | None
+
+    def retract_world(self, x: Array, delta_w: Array) -> Array:
+        """A world-chart correction made on the group (:func:`retract_world`)."""
+        return retract_world(self, x, delta_w)
+
+    def transport(self, x_old: Array, x_new: Array, cov: Array | None = None,
+                  sqrt: Array | None = None) -> Array:
+        """A world-chart covariance (or its lower factor) carried from ``x_old`` to
+        ``x_new`` with the group error fixed (:func:`transport`)."""
+        return transport(self, x_old, x_new, cov, sqrt, lead=self.transport_lead)

@@ -39,15 +39,11 @@ from typing import Literal
 
 import numpy as np
 
-from . import group_transport
+from .group_transport import WorldChartGroup
 from .linalg import Array
-from .spaces import wrap_angle
+from .spaces import MeanNotConvergedError, wrap_angle
 
 Side = Literal["right", "left"]
-
-
-class MeanNotConvergedError(ArithmeticError):
-    """The group barycentre is undefined (a sigma-point cloud spread over ~2π)."""
 
 
 def _half(theta: Array) -> tuple[Array, Array, Array]:
@@ -112,7 +108,7 @@ def log_map(x: Array) -> Array:
 
 
 @dataclass(frozen=True)
-class SlamGroup:
+class SlamGroup(WorldChartGroup):
     """:math:`SE_{1+n}(2)` with ``n_landmarks`` landmarks and right- or left-invariant
     error (module docstring); a :class:`~estimators.spaces.Space`.
 
@@ -242,25 +238,18 @@ class SlamGroup:
         return out
 
 
-    def retract_world(self, x: Array, delta_w: Array) -> Array:
-        """A world-chart correction made on the group
-        (:func:`estimators.group_transport.retract_world`)."""
-        return group_transport.retract_world(self, x, delta_w)
-
-    def transport(self, x_old: Array, x_new: Array, cov: Array | None = None,
-                  sqrt: Array | None = None) -> Array:
-        r"""A world-chart covariance (or its lower factor) carried from ``x_old`` to
-        ``x_new`` with the group error fixed (:func:`estimators.group_transport.transport`).
-        Right error: :math:`T = I + Δa\,e_φ^\top` adds multiples of the heading row to the
-        position rows (in a lower factor, columns 0-2 only); left error:
-        :math:`T = \mathrm{blkdiag}(R(Δφ), 1, R(Δφ), \dots)` rotates every position's pair of
-        rows, each pair's 2×2 block then made triangular again (:math:`O(d^2)`)."""
-        return group_transport.transport(self, x_old, x_new, cov, sqrt,
-                                         lead=3 if self.side == "right" else None)
+    @property
+    def transport_lead(self) -> int | None:
+        r"""Right error: :math:`T = I + Δa\,e_φ^\top` adds multiples of the heading row to
+        the position rows (in a lower factor, columns 0-2 only); left error (``None``):
+        :math:`T = \mathrm{blkdiag}(R(Δφ), 1, R(Δφ), \dots)` rotates every position's pair
+        of rows, each pair's 2×2 block then made triangular again (:math:`O(d^2)`)."""
+        return 3 if self.side == "right" else None
 
     def lower_factor(self, S: Array) -> Array:
         """``S`` with each position pair's 2×2 diagonal block made lower triangular."""
         return _lower_pairs(S)
+
 
 def invariant_jacobians(space_in: SlamGroup, space_out: SlamGroup, x: Array, y: Array,
                         F: Array, G: Array | None = None) -> tuple[Array, Array | None]:

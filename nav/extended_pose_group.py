@@ -46,8 +46,9 @@ from typing import Literal
 
 import numpy as np
 
-from estimators import group_transport
+from estimators.group_transport import WorldChartGroup
 from estimators.linalg import Array
+from estimators.spaces import MeanNotConvergedError
 
 from .quaternion import qconj, qexp, qlog, qmul, skew
 from .strapdown import dcm_unit as qdcm
@@ -56,10 +57,6 @@ Side = Literal["right", "left"]
 
 #: Below this angle the Jacobian coefficients use their Taylor series (truncation < 1e-15).
 _SERIES = 0.1
-
-
-class MeanNotConvergedError(ArithmeticError):
-    """The group barycentre is undefined or the attitude iteration did not converge."""
 
 
 # --------------------------------------------------------------------------- SO(3) kit
@@ -149,7 +146,7 @@ def _vector_index(n_landmarks: int, start: int) -> Array:
 
 
 @dataclass(frozen=True)
-class ExtendedPoseGroup:
+class ExtendedPoseGroup(WorldChartGroup):
     """:math:`SE_{2+n}(3)` × biases (module docstring); a :class:`~estimators.spaces.Space`
     on ``[p, v, q, b, m_1, ..., m_n]`` with ``n_landmarks`` 3-D landmarks and ``n_bias``
     bias coordinates.  Vectorised over points (rows) and the :math:`2 + n` vectors."""
@@ -362,21 +359,14 @@ class ExtendedPoseGroup:
         return out
 
 
-    def retract_world(self, x: Array, delta_w: Array) -> Array:
-        """A world-chart correction made on the group
-        (:func:`estimators.group_transport.retract_world`)."""
-        return group_transport.retract_world(self, x, delta_w)
-
-    def transport(self, x_old: Array, x_new: Array, cov: Array | None = None,
-                  sqrt: Array | None = None) -> Array:
-        r"""A world-chart covariance (or its lower factor) carried from ``x_old`` to
-        ``x_new`` with the group error fixed (:func:`estimators.group_transport.transport`).
-        Right error only: :math:`T` rotates the attitude rows by :math:`R_{new}^\top R_{old}`
+    @property
+    def transport_lead(self) -> int:
+        r"""Right error: :math:`T` rotates the attitude rows by :math:`R_{new}^\top R_{old}`
         and adds multiples of them to the p, v and landmark rows, so in a lower factor it
-        touches columns 0-8 alone."""
+        touches columns 0-8 alone.  Implemented for the right error only."""
         if self.side != "right":
             raise ValueError("the covariance transport is implemented for the right error")
-        return group_transport.transport(self, x_old, x_new, cov, sqrt, lead=9)
+        return 9
 
 
 def chain_jacobians(space_in: ExtendedPoseGroup, space_out: ExtendedPoseGroup, x: Array,
