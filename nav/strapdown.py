@@ -87,6 +87,7 @@ __all__ = [
     "gravity_enu",
     "attitudes",
     "dcm_unit",
+    "hamilton",
     "ideal_imu",
     "mechanise",
     "prefix_products",
@@ -138,8 +139,9 @@ def _cross(a: Array, b: Array) -> Array:
     return np.stack([a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1], axis=-1)
 
 
-def _qmul(p: Array, q: Array) -> Array:
-    """Hamilton product (component form; same result as :func:`nav.quaternion.qmul`)."""
+def hamilton(p: Array, q: Array) -> Array:
+    """Hamilton product in component form (equals :func:`nav.quaternion.qmul`; several
+    times faster on long series of samples)."""
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return np.stack([pw * qw - px * qx - py * qy - pz * qz,
@@ -237,10 +239,10 @@ def prefix_products(E: Array, q0: Array | None = None) -> Array:
         out = np.array(E, copy=True)
         off = 1
         while off < n:
-            tail = _qmul(out[..., :-off, :], out[..., off:, :])
+            tail = hamilton(out[..., :-off, :], out[..., off:, :])
             out = np.concatenate([out[..., :off, :], tail], axis=-2)
             off *= 2
-        return np.concatenate([q0[..., None, :], _qmul(q0[..., None, :], out)], axis=-2)
+        return np.concatenate([q0[..., None, :], hamilton(q0[..., None, :], out)], axis=-2)
     R = _right_matrix(E)
     out = np.empty(batch + (n + 1, 4))
     out[..., 0, :] = q0
@@ -260,7 +262,7 @@ def attitudes(q: ArrayLike, gyro: ArrayLike, dt: float, earth_rate: ArrayLike | 
     Q = prefix_products(_qexp(gyro * dt), np.asarray(q, dtype=np.float64))
     if earth_rate is not None and np.any(earth_rate):
         nav = qexp(-np.arange(n + 1)[:, None] * dt * np.asarray(earth_rate, dtype=np.float64))
-        Q = _qmul(nav, Q)
+        Q = hamilton(nav, Q)
     return Q / np.linalg.norm(Q, axis=-1, keepdims=True)
 
 
@@ -308,7 +310,7 @@ def mechanise(p: ArrayLike, v: ArrayLike, q: ArrayLike, gyro: ArrayLike, accel: 
     Q = prefix_products(_qexp(phi), q)  # (m, n + 1, 4)
     if wie is not None:
         nav = qexp(-np.arange(n + 1)[:, None] * dt * wie)  # (n + 1, 4)
-        Q = _qmul(nav[None], Q)
+        Q = hamilton(nav[None], Q)
     Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
     g1, g2 = _apply_gammas(phi, f)
     C = dcm_unit(Q[:, :n])  # (m, n, 3, 3)

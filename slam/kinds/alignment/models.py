@@ -90,7 +90,8 @@ from numpy.typing import NDArray
 
 from estimators import Measurement, Noise, Transition
 from nav.quaternion import qexp, qlog, qmul, qnormalize, qto_dcm, skew
-from slam.kinds.alignment.simulate import AlignmentLog, hamilton
+from nav.strapdown import hamilton
+from slam.kinds.alignment.simulate import AlignmentLog
 from slam.kinds.alignment.world import AlignmentWorld
 
 Array = NDArray[np.float64]

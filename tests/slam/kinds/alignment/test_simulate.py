@@ -10,9 +10,8 @@ import numpy as np
 
 from nav.euler import euler_zyx_to_q, q_to_euler_zyx
 from nav.quaternion import qconj, qmul, qrotate, skew
-from nav.strapdown import EARTH_RATE, G0
+from nav.strapdown import EARTH_RATE, G0, hamilton
 from slam.kinds.alignment.simulate import (
-    hamilton,
     markov,
     simulate_alignment,
     sway_attitude,
