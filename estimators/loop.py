@@ -42,6 +42,23 @@ FAILURES: tuple[type[BaseException], ...] = (np.linalg.LinAlgError, ArithmeticEr
 _epoch_hook: Callable[[], None] | None = None
 
 
+@dataclass(frozen=True)
+class BeliefRecorder:
+    """A ``record`` hook keeping every epoch's posterior: ``means`` (E, ambient) and
+    ``covs`` (E, tangent, tangent), NaN at epochs not reached."""
+
+    means: Array
+    covs: Array
+
+    @classmethod
+    def empty(cls, epochs: int, ambient: int, tangent: int) -> BeliefRecorder:
+        return cls(np.full((epochs, ambient), np.nan),
+                   np.full((epochs, tangent, tangent), np.nan))
+
+    def __call__(self, e: int, belief: Belief) -> None:
+        self.means[e] = belief.mean
+        self.covs[e] = belief.cov
+
 def set_epoch_hook(hook: Callable[[], None] | None) -> None:
     """Call ``hook()`` after every epoch of every :func:`run_epochs` in this process
     (progress reporting only: it sees nothing and changes nothing); ``None`` removes it."""

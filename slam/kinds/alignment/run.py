@@ -20,14 +20,13 @@ the 2-dof NEES of the level axes alone, and the 13-dof NEES of the whole error s
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from estimators import Euclidean, make_filter
-from estimators.loop import run_epochs
+from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from slam.kinds.alignment.models import (
     N_STATE,
@@ -47,24 +46,12 @@ from slam.scoring import nees_series
 Array = NDArray[np.float64]
 
 
-@dataclass
-class _Recorder:
-    """Posterior means and covariances at every epoch (NaN until reached)."""
-
-    means: Array
-    covs: Array
-
-    def __call__(self, j: int, belief: Belief) -> None:
-        self.means[j] = belief.mean
-        self.covs[j] = belief.cov
-
-
 def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str) -> AlignScores:
     """Filter ``name`` over the log (module docstring), scored against the truth."""
     flt = make_filter(name, gamma=world.filters.gamma)
     x0, P0 = initial_belief(world, log)
     M = log.n_epochs
-    rec = _Recorder(np.full((M, N_STATE), np.nan), np.full((M, N_STATE, N_STATE), np.nan))
+    rec = BeliefRecorder.empty(M, N_STATE, N_STATE)
     trans = aqe_transition(world, log)
     meas = velocity_measurement(world.filters.velocity_sigma_mps)
 

@@ -18,14 +18,13 @@ Every filter comes from :func:`estimators.make_filter` and runs in the one loop
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from estimators import make_filter
-from estimators.loop import run_epochs
+from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from nav.euler import q_to_euler_zyx
 from nav.quaternion import qexp, qmul
@@ -55,16 +54,6 @@ from slam.scoring import nees_series
 Array = NDArray[np.float64]
 #: σ floor of the Markov gyro drift's prior (rad/s, 1e-3 °/h): it starts at exactly 0.
 DRIFT_PRIOR_FLOOR = 1e-3 * DEG / 3600.0
-
-
-@dataclass
-class _Recorder:
-    means: Array
-    covs: Array
-
-    def __call__(self, j: int, belief: Belief) -> None:
-        self.means[j] = belief.mean
-        self.covs[j] = belief.cov
 
 
 def block_means(x: Array, n: int) -> Array:
@@ -114,8 +103,6 @@ def ins_noise(world: FixedWingWorld) -> InsNoise:
                     i.accel_drift_rw_mps2_sqrt_s, i.gyro_drift_time_s, i.accel_drift_time_s)
 
 
-
-
 def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     """EA filter ``name`` (``ea-<filter>``) over the log (module docstring)."""
     w = log.world
@@ -123,7 +110,7 @@ def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     gyro, z = ea_observations(log)
     J, tau = z.shape[0], log.n_ea * log.dt
     meas = ea_measurement(w.ea.roll_pitch_sigma_rad, w.ea.heading_sigma_rad)
-    rec = _Recorder(np.full((J, 6), np.nan), np.full((J, 6, 6), np.nan))
+    rec = BeliefRecorder.empty(J, 6, 6)
 
     def transition(j: int, b: Belief):
         return ea_transition(b.mean, tau, w.imu.gyro_arw_rad_sqrt_s,
@@ -155,7 +142,7 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     meas = gnss_measurement(w.gnss.horizontal_sigma_m, w.gnss.vertical_sigma_m,
                             w.gnss.velocity_sigma_mps)
     z = np.hstack([log.gnss_p, log.gnss_v])
-    rec = _Recorder(np.full((G, 19), np.nan), np.full((G, 18, 18), np.nan))
+    rec = BeliefRecorder.empty(G, 19, 18)
 
     def transition(i: int, b: Belief):
         sl = slice((i - 1) * n, i * n)

@@ -20,14 +20,13 @@ update is at t = 0.  Numerical failures end a run as diverged (the one filter lo
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from estimators import Measurement, Transition, make_filter
-from estimators.loop import run_epochs
+from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from nav.euler import euler_zyx_to_q, q_to_euler_zyx
 from slam.failures import run_reference
@@ -77,25 +76,13 @@ def initial_belief(world: ShipWorld, log: ShipLog) -> tuple[Array, Array]:
     return x0, P0
 
 
-@dataclass
-class _Recorder:
-    """The posterior means and covariances at every vector epoch (NaN until reached)."""
-
-    means: Array
-    covs: Array
-
-    def __call__(self, j: int, belief: Belief) -> None:
-        self.means[j] = belief.mean
-        self.covs[j] = belief.cov
-
-
 def run_filter(log: ShipLog, name: str, treat: Treatment, x0: Array, P0: Array,
                transition: Transition, vector_model: Measurement, main: bool = True
                ) -> EstimateSeries:
     """Filter ``name`` with treatment ``treat`` over the log (module docstring)."""
     flt = make_filter(name)
     M = log.n_updates
-    rec = _Recorder(np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan))
+    rec = BeliefRecorder.empty(M, 7, 6)
     dof: list[int] = []
 
     def correct(j: int, belief: Belief) -> tuple[Belief, list]:
