@@ -173,7 +173,7 @@ class _AqeMap:
         phi = -(inc.A[j] @ eps)
         tail = hamilton(inc.dq[j], qexp(phi))
         F = np.zeros((N_STATE, N_STATE))
-        F[Q_, Q_] = self.L_turn @ _right(tail)
+        F[Q_, Q_] = self.L_turn @ _right_matrix(tail)
         dexp = np.vstack([-phi / 4.0, 0.5 * np.eye(3)])
         F[Q_, G_] = _left(self.K[j] @ Q0) @ dexp @ inc.A[j]
         n2 = float(Q0 @ Q0)
@@ -196,11 +196,6 @@ class _AqeMap:
 def _left(p: Array) -> Array:
     """(4, 4) ``L`` with ``p ⊗ q = L q``."""
     return hamilton(p, np.eye(4)).T
-
-
-def _right(p: Array) -> Array:
-    """(4, 4) ``R`` with ``q ⊗ p = R q``."""
-    return hamilton(np.eye(4), p).T
 
 
 def quadratic_rotate_jacobian(Q: Array, v: Array) -> Array:
@@ -278,7 +273,7 @@ def initial_belief(world: AlignmentWorld, log: AlignmentLog) -> tuple[Array, Arr
 
 
 def _right_matrix(p: Array) -> Array:
-    """(..., 4, 4) ``R`` with ``d ⊗ p = R d``."""
+    """(..., 4, 4) ``R`` with ``d ⊗ p = R d`` (``p`` (..., 4))."""
     return np.swapaxes(qmul(np.eye(4), p[..., None, :]), -1, -2)
 
 
