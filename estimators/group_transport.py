@@ -53,7 +53,7 @@ def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
         if lead is None:
             return T(T(P).T)
         # T = I + E with E zero past column ``lead``: P' = P + EP_l + (EP_l)ᵀ + E P_ll Eᵀ
-        E = T(np.eye(P.shape[0])[:, :lead])
+        E = T(np.eye(P.shape[0], lead))
         E[:lead] -= np.eye(lead)
         EP = E @ P[:lead]
         out = P + EP
