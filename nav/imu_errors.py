@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 
-__all__ = ["ImuErrors", "ImuLog", "corrupt_imu"]
+__all__ = ["ImuErrors", "ImuLog", "corrupt_imu", "first_order_markov"]
 
 
 @dataclass(frozen=True)
@@ -61,3 +61,13 @@ def corrupt_imu(gyro: Array, accel: Array, dt: float, errors: ImuErrors,
     bg = bg0 + np.vstack([np.zeros(3), np.cumsum(wg, axis=0)])
     ba = ba0 + np.vstack([np.zeros(3), np.cumsum(wa, axis=0)])
     return ImuLog(gyro + bg[:-1] + ng, accel + ba[:-1] + na, bg, ba)
+
+
+def first_order_markov(start: Array, drive: Array, phi: float) -> Array:
+    r"""(K + 1, ...) first-order Markov series :math:`y_0` = ``start``,
+    :math:`y_k = φ\,y_{k-1} + d_{k-1}` for the drive ``d`` (K, ...), in one linear filter."""
+    from scipy.signal import lfilter  # here: scipy.signal loads scipy.stats (~1 s)
+
+    start = np.asarray(start, dtype=np.float64)
+    y, _ = lfilter([1.0], [1.0, -phi], drive, axis=0, zi=(phi * start)[None])
+    return np.vstack([start, y])

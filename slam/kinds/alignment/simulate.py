@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.imu_errors import first_order_markov
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate, qto_dcm, skew
 from nav.strapdown import G0, earth_rate_enu, gravity_enu, hamilton, prefix_products
 from slam.kinds.alignment.world import AlignmentWorld
@@ -165,10 +166,7 @@ def markov(n: int, sigma: float, tau: float, dt: float, rng: np.random.Generator
     a = math.exp(-dt / tau)
     m0 = rng.standard_normal(3) * sigma
     drive = rng.standard_normal((n - 1, 3)) * (sigma * math.sqrt(1.0 - a * a))
-    from scipy.signal import lfilter  # here: scipy.signal loads scipy.stats (~1 s)
-
-    out, _ = lfilter([1.0], [1.0, -a], np.vstack([m0, drive]), axis=0, zi=np.zeros((1, 3)))
-    return out
+    return first_order_markov(m0, drive, a)
 
 
 def increments(gyro: Array, accel: Array, s: int, dt: float) -> Increments:

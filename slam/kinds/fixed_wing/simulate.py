@@ -31,6 +31,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.imu_errors import first_order_markov
 from nav.quaternion import qconj, qrotate
 from nav.strapdown import earth_rate_enu, gravity_enu
 from slam.kinds.fixed_wing.flight import Trajectory, fly
@@ -113,12 +114,7 @@ def markov(rng: np.random.Generator, start: Array, K: int, dt: float, T: float,
     """(K + 1, 3) first-order Markov series from ``start`` (module docstring)."""
     phi = math.exp(-dt / T)
     w = rng.standard_normal((K, 3)) * (density * math.sqrt(0.5 * T * (1.0 - phi * phi)))
-    zi = (phi * np.asarray(start, dtype=np.float64))[None]
-    from scipy.signal import lfilter  # here: scipy.signal loads scipy.stats (~1 s)
-
-    y, _ = lfilter([1.0], [1.0, -phi], w, axis=0, zi=zi)  # y_k = phi y_(k-1) + w_k
-    out = np.vstack([start, y])
-    return out
+    return first_order_markov(start, w, phi)
 
 
 def simulate(world: FixedWingWorld, rng: np.random.Generator, scale: float = 1.0
