@@ -51,6 +51,7 @@ GIMBAL_LOCK_TOL = 1e-10
 __all__ = [
     "GIMBAL_LOCK_TOL",
     "dcm_nb_from_paper",
+    "euler_zyx_errors",
     "euler_zxy_to_q",
     "euler_zyx_to_q",
     "q_from_paper",
@@ -257,3 +258,21 @@ def euler_error_jacobian(q: ArrayLike, to_euler, eps: float = 1e-6) -> Array:
     plus = to_euler(qmul(q[:, None, :], qexp(steps)[None]))
     minus = to_euler(qmul(q[:, None, :], qexp(-steps)[None]))
     return np.swapaxes(wrap_angle(plus - minus) / (2.0 * eps), -1, -2)
+
+
+def euler_zyx_errors(qh: ArrayLike, P_att: ArrayLike, q_true: ArrayLike
+                     ) -> tuple[Array, Array]:
+    """``(err, sigma)`` (M, 3) of the Z-Y-X angles of ``qh`` against ``q_true`` (wrapped),
+    sigma from the body-frame attitude covariance ``P_att`` (M, 3, 3) through
+    :func:`euler_error_jacobian`; NaN rows where ``qh`` is not finite."""
+    qh, P_att, q_true = (np.asarray(a, dtype=np.float64) for a in (qh, P_att, q_true))
+    err = np.full(q_true.shape[:-1] + (3,), np.nan)
+    sig = np.full_like(err, np.nan)
+    ok = np.all(np.isfinite(qh), axis=1)
+    if ok.any():
+        err[ok] = wrap_angle(q_to_euler_zyx(qh[ok]) - q_to_euler_zyx(q_true[ok]))
+        J = euler_error_jacobian(qh[ok], q_to_euler_zyx)
+        with np.errstate(invalid="ignore"):
+            C = J @ P_att[ok] @ np.swapaxes(J, -1, -2)
+            sig[ok] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))
+    return err, sig

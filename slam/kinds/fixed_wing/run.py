@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from estimators import make_filter
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
-from nav.euler import q_to_euler_zyx
+from nav.euler import euler_zyx_errors, q_to_euler_zyx
 from nav.quaternion import qexp, qmul
 from slam.failures import run_reference
 from slam.kinds.fixed_wing.ea import ANGLES, accel_mag_angles, ea_measurement, ea_transition
@@ -36,7 +36,6 @@ from slam.kinds.fixed_wing.ins import InsNoise, gnss_measurement, ins_transition
 from slam.kinds.fixed_wing.scoring import (
     DEG,
     FwScores,
-    euler_errors,
     final_check,
     nav_nees,
     summarize_scores,
@@ -166,7 +165,7 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
     samples = np.arange(means.shape[0]) * log.n_gnss
     tr = log.traj
     qh = means[:, 6:10]
-    err, sig = euler_errors(qh, covs[:, 6:9, 6:9], tr.q[samples])
+    err, sig = euler_zyx_errors(qh, covs[:, 6:9, 6:9], tr.q[samples])
     ep, ev = means[:, 0:3] - tr.p[samples], means[:, 3:6] - tr.v[samples]
     nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
     div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)

@@ -21,8 +21,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import wrap_angle
-from nav.euler import euler_error_jacobian, q_to_euler_zyx
 from nav.spaces import UnitQuaternion
 from slam.scoring import anees_stats, nees_series
 
@@ -59,20 +57,6 @@ class FwScores:
     diverged: bool = False
     failure: str | None = None
 
-
-def euler_errors(qh: Array, P_att: Array, q_true: Array) -> tuple[Array, Array]:
-    """``(err, sigma)`` (M, 3) of the Z-Y-X angles of ``qh`` against ``q_true``; NaN rows
-    where ``qh`` is not finite; ``P_att`` is the body-frame attitude covariance."""
-    err = np.full(q_true.shape[:-1] + (3,), np.nan)
-    sig = np.full_like(err, np.nan)
-    ok = np.all(np.isfinite(qh), axis=1)
-    if ok.any():
-        err[ok] = wrap_angle(q_to_euler_zyx(qh[ok]) - q_to_euler_zyx(q_true[ok]))
-        J = euler_error_jacobian(qh[ok], q_to_euler_zyx)
-        with np.errstate(invalid="ignore"):
-            C = J @ P_att[ok] @ np.swapaxes(J, -1, -2)
-            sig[ok] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))
-    return err, sig
 
 
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:

@@ -20,8 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import wrap_angle
-from nav.euler import euler_error_jacobian, q_to_euler_zyx
+from nav.euler import euler_zyx_errors
 from nav.spaces import UnitQuaternion
 from slam.kinds.ship.simulate import ShipLog
 from slam.results import EstimateSeries
@@ -60,26 +59,12 @@ class ShipScores:
     failure: str | None = None
 
 
-def euler_errors(qh: Array, P: Array, q_true: Array) -> tuple[Array, Array]:
-    """``(err, sigma)`` (M, 3) of the Z-Y-X angles of ``qh`` against ``q_true``; NaN rows
-    where ``qh`` is not finite."""
-    err = np.full(q_true.shape[:-1] + (3,), np.nan)
-    sig = np.full_like(err, np.nan)
-    ok = np.all(np.isfinite(qh), axis=1)
-    if ok.any():
-        err[ok] = wrap_angle(q_to_euler_zyx(qh[ok]) - q_to_euler_zyx(q_true[ok]))
-        J = euler_error_jacobian(qh[ok], q_to_euler_zyx)
-        with np.errstate(invalid="ignore"):
-            C = J @ P[ok, :3, :3] @ np.swapaxes(J, -1, -2)
-            sig[ok] = np.sqrt(np.diagonal(C, axis1=1, axis2=2))
-    return err, sig
-
 
 def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScores:
     """Reduce an estimator's series to :class:`ShipScores` against the log's truth."""
     q_true, b_true = log.update_truth_q, log.update_truth_bias
     qh, P = est.means[:, :4], est.covs
-    err, sig = euler_errors(qh, P, q_true)
+    err, sig = euler_zyx_errors(qh, P[:, :3, :3], q_true)
     body = np.full((len(q_true), 3), np.nan)
     ok = np.all(np.isfinite(qh), axis=1)
     body[ok] = _QUAT.local(qh[ok], q_true[ok])
