@@ -135,7 +135,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any, NoReturn, Protocol
+from typing import Any, NoReturn, Protocol
 
 import numpy as np
 
@@ -154,12 +154,18 @@ from .linalg import (
 from .linearise import linearise_measurement, linearise_transition
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from .rules import Factor, PointRule
-from .sigma_points import draw, factorise
+from .sigma_points import SqrtMethod, draw, factorise
 from .spaces import Space
 
-if TYPE_CHECKING:  # annotations only: the filters import this module
-    from .ekf import ExtendedKalmanFilter
-    from .sigma import SigmaPointFilter
+
+class _Linearising(Protocol):
+    eps: float  # what the EKF steps read from their filter: the finite-difference step
+
+
+class _PointDrawing(Protocol):
+    rule: PointRule  # what the sigma-point steps read from their filter
+    sqrt_method: SqrtMethod
+
 
 __all__ = [
     "MAX_PENDING", "PARTITIONED_FILTERS", "BlockLayout", "EkfBlockSteps",
@@ -267,7 +273,7 @@ class EkfBlockSteps:
     EKF's own selection :func:`~estimators.ekf.linearise_transition` /
     :func:`~estimators.ekf.linearise_measurement`)."""
 
-    filt: ExtendedKalmanFilter
+    filt: _Linearising
     layout: BlockLayout
 
     def predict(self, belief: Belief, model: Transition, u: Any = None) -> Gaussian:
@@ -367,7 +373,7 @@ class SqrtSigmaBlockSteps:
     """The square-root sigma-point filters' partitioned steps (lower-triangular factor,
     possibly wide with deferred prediction columns; module docstring)."""
 
-    filt: SigmaPointFilter
+    filt: _PointDrawing
     layout: BlockLayout
 
     def _vehicle_points(self, belief: Belief, model: Transition, noise: bool, u: Any

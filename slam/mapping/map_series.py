@@ -22,8 +22,7 @@ import numpy as np
 from estimators.linalg import Array
 from estimators.models import Belief, SqrtGaussian
 from estimators.partitioned import BlockLayout
-
-COND_LIMIT = 1e12  # landmark blocks more ill-conditioned than this get no NEES
+from slam.scoring import nees_series
 
 
 @dataclass(frozen=True)
@@ -56,20 +55,6 @@ def _landmark_blocks(b: Belief, start: int, n_lm: int, dim: int) -> Array:
     C = b.cov[start:stop, start:stop].reshape(n_lm, dim, n_lm, dim)
     idx = np.arange(n_lm)
     return C[idx, :, idx, :]
-
-
-def _block_nees(err: Array, cov: Array) -> Array:
-    """NEES of each landmark (NaN where its block is unusable)."""
-    out = np.full(len(err), np.nan)
-    ok = np.all(np.isfinite(cov), axis=(1, 2)) & np.all(np.isfinite(err), axis=1)
-    if ok.any():
-        w = np.linalg.eigvalsh(cov[ok])
-        good = np.flatnonzero(ok)[w[:, 0] > np.abs(w[:, -1]) / COND_LIMIT]
-        if good.size:
-            e = err[good]
-            out[good] = np.einsum("ki,ki->k", e,
-                                  np.linalg.solve(cov[good], e[..., None])[..., 0])
-    return out
 
 
 class MapRecorder:
@@ -105,7 +90,7 @@ class MapRecorder:
             return [float(n_lm), 0.0, np.nan, np.nan, 0.0, trace]
         means = b.mean[lay.vehicle_ambient:lay.vehicle_ambient + n_lm * na].reshape(n_lm, na)
         err = means[known] - self.truth[ids[known]]
-        nees = _block_nees(err, blocks[known])
+        nees = nees_series(err, blocks[known])
         finite = np.isfinite(nees)
         return [float(n_lm), float(known.sum()), float(np.sum(err**2)),
                 float(nees[finite].sum()), float(finite.sum()), trace]
