@@ -28,16 +28,17 @@ from __future__ import annotations
 
 import math
 import operator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
+import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
 from nav.strapdown import G0
+from worlds.units import DEG
 
 KIND = "alignment"
-DEG = math.pi / 180.0
 NAMES = tuple(n for n in FILTER_NAMES + ROBUST_FILTER_NAMES if n != "hommukf")
 """Every filter but ``hommukf``: its Julier set (κ = 3 - n, centre weight 1 - 13/3) gives
 an indefinite covariance at the first prediction through the normalised rotation
@@ -74,7 +75,7 @@ class WindSpec:
 
 
 @dataclass(frozen=True)
-class ImuSpec:
+class ImuSpec(wc.Sampled):
     """IMU at ``rate_hz``; per axis: random constant (σ), first-order Markov (stationary
     σ, correlation time) and white noise (σ per sample); SI units."""
 
@@ -88,13 +89,9 @@ class ImuSpec:
     accel_markov_mps2: float
     accel_markov_tau_s: float
 
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
-
 
 @dataclass(frozen=True)
-class AlignFilterSpec:
+class AlignFilterSpec(wc.JointOnly):
     """Filters, their rate, the H∞ bound, the zero-velocity reference's σ and the
     initial misalignment (East, North, Up rotation vector of the SINS's error) with the
     prior σ."""
@@ -105,11 +102,6 @@ class AlignFilterSpec:
     velocity_sigma_mps: float
     initial_misalignment_rad: tuple[float, float, float]
     initial_sigma_rad: tuple[float, float, float]
-
-    @property
-    def mode(self) -> str:
-        """Always ``"joint"`` (read by the command line for every kind)."""
-        return "joint"
 
 
 @dataclass(frozen=True)
@@ -133,13 +125,9 @@ class ScoringSpec:
 
 
 @dataclass(frozen=True)
-class AlignmentWorld:
-    """A validated alignment world.  ``paper`` is free-form (JSON-compatible)."""
+class AlignmentWorld(wc.WorldBase):
+    """A validated alignment world."""
 
-    name: str
-    kind: str
-    description: str
-    runs: int
     duration_s: float
     site: ws.SiteSpec
     sway: SwaySpec
@@ -148,14 +136,9 @@ class AlignmentWorld:
     filters: AlignFilterSpec
     reference: ReferenceSpec
     scoring: ScoringSpec
-    source: str = ""
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
 
-    samples_per_epoch = property(lambda self: round(self.imu.rate_hz / self.filters.rate_hz),
-                                 doc="IMU samples per filter interval")
-    n_epochs = property(lambda self: 1 + round(self.filters.rate_hz * self.duration_s),
-                        doc="filter epochs, the first at t = 0")
+    samples_per_epoch = wc.per_epoch("imu", "filters", "IMU samples per filter interval")
+    n_epochs = wc.epoch_count("filters", "filter epochs, the first at t = 0")
     epochs_per_key = property(lambda self: round(self.reference.key_interval_s
                                                  * self.filters.rate_hz),
                               doc="filter epochs per smoother key")
@@ -165,8 +148,7 @@ SMALL = ws.Interval(0.0, 45.0)
 FREQ = ws.positive(100.0)
 WIND = ws.Interval(0.0, 50.0)
 
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, AlignmentWorld, {
     "duration_s": ws.Number(ws.positive(3600.0)),
     "site": ws.site(85.0, ws.Interval(-500.0, 9000.0), 0.0),
     "sway": ws.Section({
@@ -189,15 +171,13 @@ SCHEMA = {
     }, into=WindSpec),
     "imu": ws.Section({
         "rate_hz": ws.Number(ws.Interval(10.0, 10_000.0)),
-        "gyro_bias_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG).to("gyro_bias_rad_s"),
-        "gyro_white_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG)
-        .to("gyro_white_rad_s"),
-        "gyro_markov_deg_s": ws.Number(ws.Interval(0.0, 10.0), scale=DEG)
-        .to("gyro_markov_rad_s"),
+        "gyro_bias_deg_s": wc.nonnegative(10.0, DEG, "gyro_bias_rad_s"),
+        "gyro_white_deg_s": wc.nonnegative(10.0, DEG, "gyro_white_rad_s"),
+        "gyro_markov_deg_s": wc.nonnegative(10.0, DEG, "gyro_markov_rad_s"),
         "gyro_markov_tau_s": ws.Number(ws.positive(1e6)),
-        "accel_bias_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_bias_mps2"),
-        "accel_white_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_white_mps2"),
-        "accel_markov_g": ws.Number(ws.Interval(0.0, 0.1), scale=G0).to("accel_markov_mps2"),
+        "accel_bias_g": wc.nonnegative(0.1, G0, "accel_bias_mps2"),
+        "accel_white_g": wc.nonnegative(0.1, G0, "accel_white_mps2"),
+        "accel_markov_g": wc.nonnegative(0.1, G0, "accel_markov_mps2"),
         "accel_markov_tau_s": ws.Number(ws.positive(1e6)),
     }, into=ImuSpec),
     "filters": ws.Section({
@@ -207,8 +187,7 @@ SCHEMA = {
         "velocity_sigma_mps": ws.Number(ws.positive(10.0)),
         "initial_misalignment_deg": ws.Vector(3, ws.Interval(-60.0, 60.0), scale=DEG)
         .to("initial_misalignment_rad"),
-        "initial_sigma_deg": ws.Vector(3, ws.Interval(0.01, 60.0), scale=DEG)
-        .to("initial_sigma_rad"),
+        "initial_sigma_deg": wc.attitude_sigma("initial_sigma_rad", 60.0),
     }, into=AlignFilterSpec),
     "reference": ws.Section({
         "key_interval_s": ws.Number(ws.positive(100.0), default=1.0),
@@ -217,36 +196,23 @@ SCHEMA = {
     }, into=ReferenceSpec),
     "scoring": ws.Section({
         "settle_factor": ws.Number(ws.Interval(1.0, 10.0), default=1.2),
-        "divergence_deg": ws.Number(ws.positive(180.0), default=20.0, scale=DEG)
-        .to("divergence_rad"),
+        "divergence_deg": wc.divergence(20.0),
     }, into=ScoringSpec),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=AlignmentWorld)
+})
+SCHEMA = WORLD.schema
 
 
 RULES = (
-    ws.Rule("filters.rate_hz", "imu.rate_hz", ws.whole_times,
-            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "filters.rate_hz", ws.whole_periods,
-            lambda rate: f"must be a whole number (>= 1) of filter periods ({1 / rate:g} s)"),
+    wc.divides_rate("filters.rate_hz", "imu.rate_hz", "IMU"),
+    wc.whole_periods_of("filters.rate_hz", "filter"),
     ws.Rule("reference.key_interval_s", "duration_s", operator.le,
             "must not exceed {other} ({limit:g})"),
+    wc.whole_periods_of("filters.rate_hz", "filter", key="reference.key_interval_s"),
+    ws.Rule("reference.key_interval_s", "duration_s", ws.whole_times,
+            "must divide {other} ({limit:g}) a whole number of times"),
 )
-"""Checks across keys, in the order they are made."""
-
-
-def _key_interval_rule(v: dict[str, Any], root: ws.Where) -> None:
-    """The smoother's key interval must be a whole number of filter periods."""
-    ratio = v["reference"]["key_interval_s"] * v["filters"]["rate_hz"]
-    if not (ws.is_whole(ratio) and round(ratio) >= 1):
-        raise root.child("reference").child("key_interval_s").error(
-            f"must be a whole number (>= 1) of filter periods "
-            f"({1 / v['filters']['rate_hz']:g} s)", v["reference"]["key_interval_s"])
-    if not ws.is_whole(v["duration_s"] / v["reference"]["key_interval_s"]):
-        raise root.child("reference").child("key_interval_s").error(
-            f"must divide duration_s ({v['duration_s']:g}) a whole number of times",
-            v["reference"]["key_interval_s"])
+"""Checks across keys, in the order they are made; the smoother's keys fall on filter
+epochs and divide the run (the last two)."""
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -255,5 +221,4 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
     ws.check_rules(RULES, v, root)
-    _key_interval_rule(v, root)
     return ws.build(WORLD, v, name=name, source=source)

@@ -28,25 +28,20 @@ see :mod:`slam.kinds.attitude.simulate` for the motion.
 from __future__ import annotations
 
 import math
-import operator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
 import numpy as np
 
+import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES  # the one list of filter names
 from worlds import limits
+from worlds.units import ARCSEC, DEG, DEG_H, DEG_H_SQRT_H, DEG_SQRT_H
 
 KIND = "attitude"
 STAR_MODES = ("quaternion", "vectors")
-
-DEG = math.pi / 180.0
-ARCSEC = DEG / 3600.0
-DEG_H = DEG / 3600.0  # deg/h -> rad/s
-DEG_SQRT_H = DEG / 60.0  # deg/sqrt(h) -> rad/sqrt(s)
-DEG_H_SQRT_H = DEG / 3600.0 / 60.0  # (deg/h)/sqrt(h) -> rad/s/sqrt(s)
 
 #: Reference star directions used in vector mode when the file gives none (nav frame,
 #: normalised on load): well spread, no two closer than 60 degrees.
@@ -100,7 +95,7 @@ class SatelliteSpec:
 
 
 @dataclass(frozen=True)
-class GyroSpec:
+class GyroSpec(wc.Sampled):
     """Strapdown gyro: ``ω_meas = ω_true + b(t) + n``.
 
     ``bias_rad_s`` is b(0) per axis; ``bias_rw_rad_s_sqrt_s`` the rate-random-walk density
@@ -112,10 +107,6 @@ class GyroSpec:
     bias_rad_s: tuple[float, float, float]
     bias_rw_rad_s_sqrt_s: float
     arw_rad_sqrt_s: float
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
 
 
 @dataclass(frozen=True)
@@ -132,7 +123,7 @@ class StarSensorSpec:
 
 
 @dataclass(frozen=True)
-class AttitudeFilterSpec:
+class AttitudeFilterSpec(wc.JointOnly):
     """Filters to run and what they (and the smoother) assume.
 
     ``initial_error_rad``: the estimate starts at the truth's Z-X-Y Euler angles plus this
@@ -148,11 +139,6 @@ class AttitudeFilterSpec:
     bias_rw_rad_s_sqrt_s: float
     star_sigma_rad: float
 
-    @property
-    def mode(self) -> str:
-        """Always ``"joint"``: one state, no map to split (read by the CLI for every kind)."""
-        return "joint"
-
 
 @dataclass(frozen=True)
 class ScoringSpec:
@@ -166,36 +152,21 @@ class ScoringSpec:
 
 
 @dataclass(frozen=True)
-class AttitudeWorld:
-    """A validated attitude world.  ``paper`` is free-form (JSON-compatible)."""
+class AttitudeWorld(wc.WorldBase):
+    """A validated attitude world."""
 
-    name: str
-    kind: str
-    description: str
     duration_s: float
     satellite: SatelliteSpec
     gyro: GyroSpec
     star: StarSensorSpec
     filters: AttitudeFilterSpec
     scoring: ScoringSpec
-    runs: int
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
-    source: str = ""
 
-    @property
-    def samples_per_star(self) -> int:
-        """Gyro samples per star-sensor interval."""
-        return int(round(self.gyro.rate_hz / self.star.rate_hz))
-
-    @property
-    def n_star(self) -> int:
-        """Star epochs, the first at t = 0."""
-        return int(round(self.duration_s * self.star.rate_hz)) + 1
+    samples_per_star = wc.per_epoch("gyro", "star", "gyro samples per star-sensor interval")
+    n_star = wc.epoch_count("star", "star epochs, the first at t = 0")
 
 
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, AttitudeWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "satellite": ws.Section(
         {
@@ -213,10 +184,8 @@ SCHEMA = {
         {
             "rate_hz": ws.Number(ws.positive(10_000.0)),
             "bias_deg_h": ws.Vector(3, ws.Interval(-3600.0, 3600.0), scale=DEG_H).to("bias_rad_s"),
-            "bias_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_H_SQRT_H)
-            .to("bias_rw_rad_s_sqrt_s"),
-            "arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_SQRT_H)
-            .to("arw_rad_sqrt_s"),
+            "bias_rw_deg_h_sqrt_h": wc.nonnegative(100.0, DEG_H_SQRT_H, "bias_rw_rad_s_sqrt_s"),
+            "arw_deg_sqrt_h": wc.nonnegative(100.0, DEG_SQRT_H, "arw_rad_sqrt_s"),
         },
         into=GyroSpec,
     ),
@@ -251,23 +220,18 @@ SCHEMA = {
         {
             "steady_state_from_s": ws.Number(ws.Interval(0.0, 86_400.0)),
             "report_convergence": ws.Boolean(default=False),
-            "divergence_deg": ws.Number(ws.positive(180.0), default=1.0, scale=DEG)
-            .to("divergence_rad"),
+            "divergence_deg": wc.divergence(1.0),
         },
         into=ScoringSpec,
     ),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=AttitudeWorld)
+})
+SCHEMA = WORLD.schema
 
 
 RULES = (
-    ws.Rule("star_sensor.rate_hz", "gyro.rate_hz", ws.whole_times,
-            "must divide the gyro rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "star_sensor.rate_hz", ws.whole_periods,
-            lambda rate: f"must be a whole number (>= 1) of star-sensor periods ({1 / rate:g} s)"),
-    ws.Rule("scoring.steady_state_from_s", "duration_s", operator.lt,
-            "must be below {other} ({limit:g})"),
+    wc.divides_rate("star_sensor.rate_hz", "gyro.rate_hz", "gyro"),
+    wc.whole_periods_of("star_sensor.rate_hz", "star-sensor"),
+    wc.below("scoring.steady_state_from_s", "duration_s"),
 )
 """Checks across keys, in the order they are made."""
 

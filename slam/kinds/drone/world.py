@@ -44,16 +44,18 @@ and the white noise are per sample (``σ_rw·√dt`` and ``σ_wn/√dt``).
 from __future__ import annotations
 
 import math
-import operator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
+import worlds.common as wc
 import worlds.schema as ws
 from slam.kinds.drone.variants import DRONE_FILTERS, DRONE_LOCAL_FILTERS
 from slam.kinds.planar.world import (
     COORD,
     GATES,
+    MODES,
+    FilterSpec,
     MapSpec,
     check_bounds,
     check_inside,
@@ -62,18 +64,10 @@ from slam.kinds.planar.world import (
     start_pose,
 )
 from worlds import limits
+from worlds.units import DEG, DEG_H, DEG_H_SQRT_H, DEG_SQRT_H, MG, MG_SQRT_H, MPS_SQRT_H
 
 KIND = "drone-slam"
-MODES = ("joint", "local")
 TERRAIN_TYPES = ("flat", "hills", "mesh")
-
-DEG = math.pi / 180.0
-DEG_H = DEG / 3600.0  # deg/h -> rad/s
-DEG_SQRT_H = DEG / 60.0  # deg/sqrt(h) -> rad/sqrt(s)
-DEG_H_SQRT_H = DEG / 3600.0 / 60.0  # (deg/h)/sqrt(h) -> rad/s/sqrt(s)
-MG = 9.80665e-3  # milli-g -> m/s^2
-MG_SQRT_H = MG / 60.0  # mg/sqrt(h) -> m/s^2/sqrt(s)
-MPS_SQRT_H = 1.0 / 60.0  # m/s/sqrt(h) -> m/s/sqrt(s)
 
 _HILL_KEYS = ("hill_centres_m", "hill_amplitude_m", "hill_width_m")
 
@@ -130,7 +124,7 @@ class DroneVehicleSpec:
 
 
 @dataclass(frozen=True)
-class ImuSpec:
+class ImuSpec(wc.Sampled):
     """Strapdown IMU at ``rate_hz`` (SI units; densities per √s).
 
     Gyro (rad/s): ``ω̃ = ω + b_g + n_g``; accelerometer (m/s²): ``f̃ = f + b_a + n_a``.
@@ -150,10 +144,6 @@ class ImuSpec:
     accel_bias_sigma: float = 3.0 * MG
     accel_bias_rw: float = 0.3 * MG_SQRT_H
     accel_vrw: float = 0.06 * MPS_SQRT_H
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
 
 
 @dataclass(frozen=True)
@@ -178,47 +168,35 @@ class LandmarkSensorSpec:
 
 
 @dataclass(frozen=True)
-class DroneFilterSpec:
-    """Filters, association, and what the filters assume: the IMU and sensor noise
-    variances of the world times ``imu_noise_scale`` / ``sensor_noise_scale``.  A run
-    whose position error exceeds ``divergence_m`` is stopped and reported diverged."""
+class DroneFilterSpec(FilterSpec):
+    """The planar SLAM filter spec with the drone's gates, and what the filters assume:
+    the IMU and sensor noise variances of the world times ``imu_noise_scale`` /
+    ``sensor_noise_scale``.  A run whose position error exceeds ``divergence_m`` is
+    stopped and reported diverged."""
 
-    names: tuple[str, ...] = ("ekf", "srckf", "srukf", "srcdkf")
-    association: str = "known"
     gate_accept: float = 7.8
     gate_new: float = 30.0
-    mode: str = "joint"
     imu_noise_scale: float = 1.0
     sensor_noise_scale: float = 1.0
     divergence_m: float = 25.0
 
 
 @dataclass(frozen=True)
-class DroneWorld:
-    """A validated drone world.  ``paper`` is free-form (JSON-compatible)."""
+class DroneWorld(wc.WorldBase):
+    """A validated drone world."""
 
-    name: str
-    kind: str
-    description: str
     map: MapSpec
     terrain: TerrainSpec
     vehicle: DroneVehicleSpec
     imu: ImuSpec
     sensor: LandmarkSensorSpec
     filters: DroneFilterSpec
-    runs: int
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
-    source: str = ""
 
-    @property
-    def samples_per_epoch(self) -> int:
-        """IMU samples per landmark-sensor period (one filter epoch)."""
-        return int(round(self.imu.rate_hz / self.sensor.rate_hz))
+    samples_per_epoch = wc.per_epoch("imu", "sensor",
+                                     "IMU samples per landmark-sensor period (one filter epoch)")
 
 
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, DroneWorld, {
     "map": ws.Section(
         {
             "bounds_m": ws.Vector(4, COORD),
@@ -271,18 +249,12 @@ SCHEMA = {
             "gravity_mps2": ws.Number(ws.Interval(0.0, 30.0), default=9.80665),
             "earth_rate": ws.Boolean(default=False),
             "latitude_deg": ws.Number(ws.Interval(-90.0, 90.0), 34.75, DEG).to("latitude_rad"),
-            "gyro_bias_sigma_deg_h": ws.Number(ws.Interval(0.0, 1e5), 30.0, DEG_H)
-            .to("gyro_bias_sigma"),
-            "gyro_bias_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 1e4), 3.0, DEG_H_SQRT_H)
-            .to("gyro_bias_rw"),
-            "gyro_arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), 0.3, DEG_SQRT_H)
-            .to("gyro_arw"),
-            "accel_bias_sigma_mg": ws.Number(ws.Interval(0.0, 1000.0), 3.0, MG)
-            .to("accel_bias_sigma"),
-            "accel_bias_rw_mg_sqrt_h": ws.Number(ws.Interval(0.0, 1000.0), 0.3, MG_SQRT_H)
-            .to("accel_bias_rw"),
-            "accel_vrw_mps_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), 0.06, MPS_SQRT_H)
-            .to("accel_vrw"),
+            "gyro_bias_sigma_deg_h": wc.nonnegative(1e5, DEG_H, "gyro_bias_sigma", 30.0),
+            "gyro_bias_rw_deg_h_sqrt_h": wc.nonnegative(1e4, DEG_H_SQRT_H, "gyro_bias_rw", 3.0),
+            "gyro_arw_deg_sqrt_h": wc.nonnegative(100.0, DEG_SQRT_H, "gyro_arw", 0.3),
+            "accel_bias_sigma_mg": wc.nonnegative(1000.0, MG, "accel_bias_sigma", 3.0),
+            "accel_bias_rw_mg_sqrt_h": wc.nonnegative(1000.0, MG_SQRT_H, "accel_bias_rw", 0.3),
+            "accel_vrw_mps_sqrt_h": wc.nonnegative(100.0, MPS_SQRT_H, "accel_vrw", 0.06),
         },
         required=False,
         into=ImuSpec,
@@ -311,15 +283,12 @@ SCHEMA = {
         sensor_noise_scale=ws.Number(ws.positive(1e6), default=1.0),
         divergence_m=ws.Number(ws.positive(1e6), default=25.0),
     ),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=DroneWorld)
+})
+SCHEMA = WORLD.schema
 
 RULES = (
-    ws.Rule("sensor.rate_hz", "imu.rate_hz", ws.whole_times,
-            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("sensor.min_range_m", "sensor.max_range_m", operator.lt,
-            "must be below {other} ({limit:g})"),
+    wc.divides_rate("sensor.rate_hz", "imu.rate_hz", "IMU"),
+    wc.below("sensor.min_range_m", "sensor.max_range_m"),
     GATES,
 )
 """Checks across keys, in the order they are made."""

@@ -31,24 +31,18 @@ Units are spelled in every key and converted to SI radians on load.  File layout
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
 import numpy as np
 
+import worlds.common as wc
 import worlds.schema as ws
 from worlds import limits
+from worlds.units import DEG, DEG_H, DEG_H_SQRT_H, DEG_SQRT_H, MG, MG_SQRT_H, MPS_SQRT_H
 
 KIND = "fixed-wing"
-DEG = math.pi / 180.0
-DEG_H = DEG / 3600.0
-DEG_SQRT_H = DEG / 60.0
-DEG_H_SQRT_H = DEG / 3600.0 / 60.0
-MG = 9.80665e-3
-MG_SQRT_H = MG / 60.0
-MPS_SQRT_H = 1.0 / 60.0
 
 EA_FILTERS = ("ukf", "ckf", "srckf", "ekf")
 INS_FILTERS = ("ckf", "ukf", "srckf", "ekf")
@@ -91,7 +85,7 @@ class FlightSpec:
 
 
 @dataclass(frozen=True)
-class ImuSpec:
+class ImuSpec(wc.Sampled):
     """MEMS IMU (SI): gyro constant drift σ (drawn per run), first-order Markov gyro
     drift (driving density, correlation time), white noise; accelerometer Markov drift
     (initial σ, driving density, correlation time) and white noise."""
@@ -106,10 +100,6 @@ class ImuSpec:
     accel_drift_rw_mps2_sqrt_s: float
     accel_drift_time_s: float
     accel_vrw_mps_sqrt_s: float
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
 
 
 @dataclass(frozen=True)
@@ -153,13 +143,8 @@ class InsSpec:
 
 
 @dataclass(frozen=True)
-class FilterSpec:
+class FilterSpec(wc.JointOnly):
     names: tuple[str, ...]
-
-    @property
-    def mode(self) -> str:
-        """Always ``"joint"`` (read by the command line for every kind)."""
-        return "joint"
 
 
 @dataclass(frozen=True)
@@ -175,13 +160,9 @@ class ScoringSpec:
 
 
 @dataclass(frozen=True)
-class FixedWingWorld:
-    """A validated fixed-wing world.  ``paper`` is free-form (JSON-compatible)."""
+class FixedWingWorld(wc.WorldBase):
+    """A validated fixed-wing world."""
 
-    name: str
-    kind: str
-    description: str
-    runs: int
     duration_s: float
     site: ws.SiteSpec
     flight: FlightSpec
@@ -192,9 +173,6 @@ class FixedWingWorld:
     ins: InsSpec
     filters: FilterSpec
     scoring: ScoringSpec
-    source: str = ""
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -203,8 +181,7 @@ class FixedWingWorld:
 
 
 SPEED = ws.Interval(5.0, 100.0)
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, FixedWingWorld, {
     "duration_s": ws.Number(ws.positive(7_200.0)),
     "site": ws.site(80.0, ws.Interval(-400.0, 10_000.0)),
     "flight": ws.Section({
@@ -221,20 +198,15 @@ SCHEMA = {
     "imu": ws.Section({
         "rate_hz": ws.Number(ws.Interval(10.0, 1_000.0)),
         "earth_rate": ws.Boolean(default=True),
-        "gyro_bias_sigma_deg_h": ws.Number(ws.Interval(0.0, 3_600.0), scale=DEG_H)
-        .to("gyro_bias_sigma_rad_s"),
-        "gyro_drift_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 1_000.0), scale=DEG_H_SQRT_H)
-        .to("gyro_drift_rw_rad_s_sqrt_s"),
+        "gyro_bias_sigma_deg_h": wc.nonnegative(3_600.0, DEG_H, "gyro_bias_sigma_rad_s"),
+        "gyro_drift_rw_deg_h_sqrt_h": wc.nonnegative(1_000.0, DEG_H_SQRT_H,
+                                                  "gyro_drift_rw_rad_s_sqrt_s"),
         "gyro_drift_time_s": ws.Number(ws.Interval(1.0, 1e6)),
-        "gyro_arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_SQRT_H)
-        .to("gyro_arw_rad_sqrt_s"),
-        "accel_drift_sigma_mg": ws.Number(ws.Interval(0.0, 100.0), scale=MG)
-        .to("accel_drift_sigma_mps2"),
-        "accel_drift_rw_mg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=MG_SQRT_H)
-        .to("accel_drift_rw_mps2_sqrt_s"),
+        "gyro_arw_deg_sqrt_h": wc.nonnegative(100.0, DEG_SQRT_H, "gyro_arw_rad_sqrt_s"),
+        "accel_drift_sigma_mg": wc.nonnegative(100.0, MG, "accel_drift_sigma_mps2"),
+        "accel_drift_rw_mg_sqrt_h": wc.nonnegative(100.0, MG_SQRT_H, "accel_drift_rw_mps2_sqrt_s"),
         "accel_drift_time_s": ws.Number(ws.Interval(1.0, 1e6)),
-        "accel_vrw_mps_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=MPS_SQRT_H)
-        .to("accel_vrw_mps_sqrt_s"),
+        "accel_vrw_mps_sqrt_h": wc.nonnegative(100.0, MPS_SQRT_H, "accel_vrw_mps_sqrt_s"),
     }, into=ImuSpec),
     "magnetometer": ws.Section({
         "field_ut": ws.Number(ws.Interval(10.0, 100.0)),
@@ -253,14 +225,11 @@ SCHEMA = {
         "update_rate_hz": ws.Number(ws.Interval(0.1, 1_000.0)),
         "roll_pitch_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("roll_pitch_sigma_rad"),
         "heading_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("heading_sigma_rad"),
-        "initial_sigma_deg": ws.Vector(3, ws.Interval(0.01, 45.0), scale=DEG)
-        .to("initial_sigma_rad"),
-        "initial_bias_sigma_deg_h": ws.Number(ws.positive(36_000.0), scale=DEG_H)
-        .to("initial_bias_sigma_rad_s"),
+        "initial_sigma_deg": wc.attitude_sigma("initial_sigma_rad"),
+        "initial_bias_sigma_deg_h": wc.bias_sigma(36_000.0),
     }, into=EaSpec),
     "ins": ws.Section({
-        "initial_attitude_sigma_deg": ws.Vector(3, ws.Interval(0.01, 45.0), scale=DEG)
-        .to("initial_attitude_sigma_rad"),
+        "initial_attitude_sigma_deg": wc.attitude_sigma("initial_attitude_sigma_rad"),
         "initial_velocity_sigma_mps": ws.Number(ws.positive(100.0)),
         "initial_position_sigma_m": ws.Number(ws.positive(1_000.0)),
     }, into=InsSpec),
@@ -269,23 +238,15 @@ SCHEMA = {
         "turn_rate_deg_s": ws.Number(ws.positive(30.0), default=1.0, scale=DEG)
         .to("turn_rate_rad_s"),
         "accel_mps2": ws.Number(ws.positive(10.0), default=0.05),
-        "divergence_deg": ws.Number(ws.positive(180.0), default=45.0, scale=DEG)
-        .to("divergence_rad"),
+        "divergence_deg": wc.divergence(45.0),
     }, into=ScoringSpec),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=FixedWingWorld)
-
-
-def _every(rate: float, other: float) -> bool:
-    return ws.whole_times(rate, other)
+})
+SCHEMA = WORLD.schema
 
 
 RULES = (
-    ws.Rule("gnss.rate_hz", "imu.rate_hz", _every,
-            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("ea.update_rate_hz", "imu.rate_hz", _every,
-            "must divide the IMU rate ({limit:g} Hz) a whole number of times"),
+    wc.divides_rate("gnss.rate_hz", "imu.rate_hz", "IMU"),
+    wc.divides_rate("ea.update_rate_hz", "imu.rate_hz", "IMU"),
     ws.Rule("duration_s", "gnss.rate_hz", lambda d, r: ws.is_whole(d * r) and d * r >= 2,
             lambda r: f"must be a whole number (>= 2) of GNSS periods ({1 / r:g} s)"),
 )

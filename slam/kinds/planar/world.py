@@ -29,13 +29,14 @@ from __future__ import annotations
 import json
 import math
 import operator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+import worlds.common as wc
 import worlds.schema as ws
 from estimators import wrap_angle
 from estimators.filters import FILTER_NAMES  # the one list of filter names
@@ -134,22 +135,14 @@ class FilterSpec:
 
 
 @dataclass(frozen=True)
-class World:
-    """A validated world. ``paper`` is free-form (JSON-compatible); treat it as read-only."""
+class World(wc.WorldBase):
+    """A validated planar world."""
 
-    name: str
-    kind: str
-    description: str
     map: MapSpec
     vehicle: VehicleSpec
     sensor: RangeBearingSpec
     noise: ControlNoise
     filters: FilterSpec
-    runs: int
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
-    source: str = ""
-    """Where the world came from (file path as shown in errors, or ``<name>``)."""
 
 
 def filters_section(modes: tuple[str, ...], into: type, *, gate_accept: float,
@@ -174,8 +167,7 @@ GATES = ws.Rule("filters.gate_new", "filters.gate_accept", operator.ge,
                 "must be >= {other} ({limit:g})")
 """A new landmark's gate is not inside the accepting one."""
 
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, World, {
     "map": ws.Section(
         {
             "bounds_m": ws.Vector(4, COORD),
@@ -222,9 +214,8 @@ SCHEMA = {
     ),
     "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0,
                                names=PLANAR_FILTERS),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=World)
+})
+SCHEMA = WORLD.schema
 
 
 def _read_map_file(rel: str, base: Traversable | None, where: ws.Where) -> dict[str, Array]:

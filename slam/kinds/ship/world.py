@@ -29,20 +29,16 @@ vector sensors'); see :mod:`slam.kinds.ship.simulate` for the motion and the sen
 
 from __future__ import annotations
 
-import math
-import operator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
+import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES
+from worlds.units import DEG, DEG_H, DEG_H_SQRT_H, DEG_SQRT_H
 
 KIND = "ship"
-DEG = math.pi / 180.0
-DEG_H = DEG / 3600.0  # deg/h -> rad/s
-DEG_SQRT_H = DEG / 60.0  # deg/sqrt(h) -> rad/sqrt(s)
-DEG_H_SQRT_H = DEG / 3600.0 / 60.0  # (deg/h)/sqrt(h) -> rad/s/sqrt(s)
 MG = 1e-3  # milli-g -> fraction of g
 PERCENT = 1e-2
 
@@ -95,17 +91,13 @@ class WaveSpec:
 
 
 @dataclass(frozen=True)
-class GyroSpec:
+class GyroSpec(wc.Sampled):
     """Fibre-optic gyro: ``ω̃ = ω_ib + b(t) + n``; ``bias_rad_s`` is b(0)."""
 
     rate_hz: float
     arw_rad_sqrt_s: float
     bias_rw_rad_s_sqrt_s: float
     bias_rad_s: tuple[float, float, float]
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
 
 
 @dataclass(frozen=True)
@@ -122,7 +114,7 @@ class VectorSpec:
 
 
 @dataclass(frozen=True)
-class ShipFilterSpec:
+class ShipFilterSpec(wc.JointOnly):
     """Filters, their treatments and the initial belief (radians, rad/s)."""
 
     names: tuple[str, ...]
@@ -131,11 +123,6 @@ class ShipFilterSpec:
     initial_error_rad: tuple[float, float, float]
     initial_attitude_sigma_rad: tuple[float, float, float]
     initial_bias_sigma_rad_s: float
-
-    @property
-    def mode(self) -> str:
-        """Always ``"joint"`` (read by the command line for every kind)."""
-        return "joint"
 
     def treatment(self, name: str) -> str:
         """The treatment of main filter ``name``: ``paper`` or ``manifold``."""
@@ -154,13 +141,9 @@ class ScoringSpec:
 
 
 @dataclass(frozen=True)
-class ShipWorld:
-    """A validated ship world.  ``paper`` is free-form (JSON-compatible)."""
+class ShipWorld(wc.WorldBase):
+    """A validated ship world."""
 
-    name: str
-    kind: str
-    description: str
-    runs: int
     duration_s: float
     site: ws.SiteSpec
     waves: WaveSpec
@@ -168,21 +151,16 @@ class ShipWorld:
     vectors: VectorSpec
     filters: ShipFilterSpec
     scoring: ScoringSpec
-    source: str = ""
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
 
-    samples_per_update = property(lambda self: round(self.gyro.rate_hz / self.vectors.rate_hz),
-                                  doc="gyro samples per vector-observation interval")
-    n_updates = property(lambda self: 1 + round(self.vectors.rate_hz * self.duration_s),
-                         doc="vector-observation epochs, the first at t = 0")
+    samples_per_update = wc.per_epoch("gyro", "vectors",
+                                      "gyro samples per vector-observation interval")
+    n_updates = wc.epoch_count("vectors", "vector-observation epochs, the first at t = 0")
 
 
 ANGLE = ws.Interval(0.0, 45.0)
 PERIOD = ws.Interval(0.5, 600.0)
 
-SCHEMA = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, ShipWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "site": ws.site(89.0, ws.Interval(-100.0, 100.0), 0.0),
     "waves": ws.Section({
@@ -197,10 +175,8 @@ SCHEMA = {
     }, into=WaveSpec),
     "gyro": ws.Section({
         "rate_hz": ws.Number(ws.positive(10_000.0)),
-        "arw_deg_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_SQRT_H)
-        .to("arw_rad_sqrt_s"),
-        "bias_rw_deg_h_sqrt_h": ws.Number(ws.Interval(0.0, 100.0), scale=DEG_H_SQRT_H)
-        .to("bias_rw_rad_s_sqrt_s"),
+        "arw_deg_sqrt_h": wc.nonnegative(100.0, DEG_SQRT_H, "arw_rad_sqrt_s"),
+        "bias_rw_deg_h_sqrt_h": wc.nonnegative(100.0, DEG_H_SQRT_H, "bias_rw_rad_s_sqrt_s"),
         "bias_deg_h": ws.Vector(3, ws.Interval(-3600.0, 3600.0), scale=DEG_H).to("bias_rad_s"),
     }, into=GyroSpec),
     "vectors": ws.Section({
@@ -219,21 +195,17 @@ SCHEMA = {
         "variants": Variants(default=[]),
         "initial_error_deg": ws.Vector(3, ws.Interval(-45.0, 45.0), scale=DEG)
         .to("initial_error_rad"),
-        "initial_attitude_sigma_deg": ws.Vector(3, ws.Interval(0.01, 45.0), scale=DEG)
-        .to("initial_attitude_sigma_rad"),
-        "initial_bias_sigma_deg_h": ws.Number(ws.positive(3600.0), scale=DEG_H)
-        .to("initial_bias_sigma_rad_s"),
+        "initial_attitude_sigma_deg": wc.attitude_sigma("initial_attitude_sigma_rad"),
+        "initial_bias_sigma_deg_h": wc.bias_sigma(3600.0),
     }, into=ShipFilterSpec),
     "scoring": ws.Section({
         "converge_arcmin": ws.Number(ws.positive(600.0), default=10.0, scale=DEG / 60.0)
         .to("converge_rad"),
         "steady_state_from_s": ws.Number(ws.Interval(0.0, 86_400.0)),
-        "divergence_deg": ws.Number(ws.positive(180.0), default=10.0, scale=DEG)
-        .to("divergence_rad"),
+        "divergence_deg": wc.divergence(10.0),
     }, into=ScoringSpec),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=ShipWorld)
+})
+SCHEMA = WORLD.schema
 
 
 def _subset(value: tuple[str, ...], names: tuple[str, ...]) -> bool:
@@ -241,12 +213,9 @@ def _subset(value: tuple[str, ...], names: tuple[str, ...]) -> bool:
 
 
 RULES = (
-    ws.Rule("vectors.rate_hz", "gyro.rate_hz", ws.whole_times,
-            "must divide the gyro rate ({limit:g} Hz) a whole number of times"),
-    ws.Rule("duration_s", "vectors.rate_hz", ws.whole_periods,
-            lambda rate: f"must be a whole number (>= 1) of vector periods ({1 / rate:g} s)"),
-    ws.Rule("scoring.steady_state_from_s", "duration_s", operator.lt,
-            "must be below {other} ({limit:g})"),
+    wc.divides_rate("vectors.rate_hz", "gyro.rate_hz", "gyro"),
+    wc.whole_periods_of("vectors.rate_hz", "vector"),
+    wc.below("scoring.steady_state_from_s", "duration_s"),
     ws.Rule("filters.paper_model", "filters.names", _subset,
             "must name only filters listed in {other}"),
 )

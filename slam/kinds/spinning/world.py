@@ -30,10 +30,11 @@ Units are spelled in every key and converted to SI radians on load.  File layout
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
+import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
 from slam.kinds.spinning.noise import DISTRIBUTIONS, NoiseShape
@@ -101,18 +102,13 @@ class MagnetometerSpec:
 
 
 @dataclass(frozen=True)
-class SpinningFilterSpec:
+class SpinningFilterSpec(wc.JointOnly):
     """Filters to run; γ and the failure policy of ``srchinf``/``uthinf``; the prior σ."""
 
     names: tuple[str, ...]
     gamma_rad: float
     on_failure: str
     initial_sigma_rad: tuple[float, float]
-
-    @property
-    def mode(self) -> str:
-        """Always ``"joint"`` (one small state; read by the CLI for every kind)."""
-        return "joint"
 
 
 @dataclass(frozen=True)
@@ -144,13 +140,9 @@ class SweepSpec:
 
 
 @dataclass(frozen=True)
-class SpinningWorld:
-    """A validated ``spinning`` world (SI units, radians).  ``paper`` is free-form."""
+class SpinningWorld(wc.WorldBase):
+    """A validated ``spinning`` world (SI units, radians)."""
 
-    name: str
-    kind: str
-    description: str
-    runs: int
     sample_interval_s: float
     flight: FlightSpec
     roll0_rad: float
@@ -162,9 +154,6 @@ class SpinningWorld:
     filters: SpinningFilterSpec
     scoring: ScoringSpec
     sweep: SweepSpec
-    seed: int = 0
-    paper: dict[str, Any] = field(default_factory=dict)
-    source: str = ""
 
 
 _LAUNCH = {
@@ -181,8 +170,7 @@ _FLIGHT = {
     "target_range_m": ws.Number(ws.positive(1e6)),
     "target_apex_m": ws.Number(ws.positive(1e6)),
 }
-SCHEMA: dict[str, Any] = {
-    **ws.header(KIND),
+WORLD = wc.world(KIND, SpinningWorld, {
     "sample_interval_s": ws.Number(ws.Interval(0.001, 1.0)),
     "launch": ws.Section(_LAUNCH, attr=None),
     "flight": ws.Section(_FLIGHT, attr=None),
@@ -221,8 +209,7 @@ SCHEMA: dict[str, Any] = {
     "scoring": ws.Section({
         "blind_area_deg": ws.Number(ws.Interval(0.0, 90.0, lo_open=True), scale=DEG)
         .to("blind_area_rad"),
-        "divergence_deg": ws.Number(ws.positive(180.0), default=20.0, scale=DEG)
-        .to("divergence_rad"),
+        "divergence_deg": wc.divergence(20.0),
     }, into=ScoringSpec),
     "sweep": ws.Section({
         "factors": Factors(default=[1.0, 2.0, 5.0, 10.0]),
@@ -232,9 +219,8 @@ SCHEMA: dict[str, Any] = {
         "filters": ws.StringList(NAMES, default=list(NAMES)),
         "scale": ws.String(choices=SCALES, default="both"),
     }, required=False, into=SweepSpec),
-    "paper": ws.FreeForm(default=dict),
-}
-WORLD = ws.Section(SCHEMA, into=SpinningWorld)
+})
+SCHEMA = WORLD.schema
 
 
 def _flight(launch: dict[str, Any], flight: dict[str, Any]) -> FlightSpec:

@@ -1,0 +1,116 @@
+"""What several world kinds declare alike: the whole-world table (:func:`world`) and the
+fields every validated world has (:class:`WorldBase`), the sampled-sensor and
+joint-filter mixins of their section dataclasses and the world properties counting
+samples and epochs, the checks across keys that recur (a rate dividing another, a
+duration of whole periods, one value below another), and the key specs that recur
+(noise densities, prior σ, the divergence bound)."""
+
+from __future__ import annotations
+
+import operator
+from dataclasses import KW_ONLY, dataclass, field
+from typing import Any
+
+import worlds.schema as ws
+from worlds.units import DEG, DEG_H
+
+
+def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section]) -> ws.Section:
+    """The whole table of a world kind, built into ``into`` (a :class:`WorldBase`): the
+    header keys (:func:`~worlds.schema.header`), the kind's ``sections`` and last the
+    free-form ``paper`` table (the paper's claims, passed through to summary.json)."""
+    return ws.Section({**ws.header(kind), **sections, "paper": ws.FreeForm(default=dict)},
+                      into=into)
+
+
+@dataclass(frozen=True)
+class WorldBase:
+    """The fields of every validated world: its name and the header keys (``kind``,
+    ``description``, ``runs``, ``seed``), the free-form ``paper`` table (JSON-compatible;
+    treat it as read-only) and ``source``.  A kind's sections follow ``runs``; ``seed``,
+    ``paper`` and ``source`` are keyword-only."""
+
+    name: str
+    kind: str
+    description: str
+    runs: int
+    _: KW_ONLY
+    seed: int = 0
+    paper: dict[str, Any] = field(default_factory=dict)
+    source: str = ""
+    """Where the world came from (file path as shown in errors, or ``<name>``)."""
+
+
+class Sampled:
+    """Mixin of a sensor section sampled at ``rate_hz``: its sample period ``dt_s``."""
+
+    rate_hz: float
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+class JointOnly:
+    """Mixin of a ``[filters]`` section whose filters run on one joint state (no map to
+    split): ``mode`` is always ``"joint"`` (read by the command line for every kind)."""
+
+    @property
+    def mode(self) -> str:
+        return "joint"
+
+
+def per_epoch(fast: str, slow: str, doc: str) -> property:
+    """A world's property: samples of its section ``fast`` per period of its section
+    ``slow`` (each with a ``rate_hz``; a whole number, checked on load)."""
+    return property(lambda w: round(getattr(w, fast).rate_hz / getattr(w, slow).rate_hz),
+                    doc=doc)
+
+
+def epoch_count(section: str, doc: str) -> property:
+    """A world's property: the epochs of its section ``section`` over ``duration_s``, the
+    first at t = 0."""
+    return property(lambda w: 1 + round(getattr(w, section).rate_hz * w.duration_s), doc=doc)
+
+
+def divides_rate(key: str, other: str, sensor: str) -> ws.Rule:
+    """The rate at ``key`` goes into the ``sensor``'s rate at ``other`` a whole number of
+    times."""
+    return ws.Rule(key, other, ws.whole_times,
+                   f"must divide the {sensor} rate ({{limit:g}} Hz) a whole number of times")
+
+
+def whole_periods_of(rate_key: str, what: str, key: str = "duration_s") -> ws.Rule:
+    """The time at ``key`` is a whole number (>= 1) of periods of the ``what`` rate at
+    ``rate_key``."""
+    return ws.Rule(key, rate_key, ws.whole_periods,
+                   lambda rate: f"must be a whole number (>= 1) of {what} periods ({1 / rate:g} s)")
+
+
+def below(key: str, other: str) -> ws.Rule:
+    """The value at ``key`` is below the one at ``other``."""
+    return ws.Rule(key, other, operator.lt, "must be below {other} ({limit:g})")
+
+
+def nonnegative(hi: float, scale: float, attr: str, default: Any = ws.REQUIRED) -> ws.Number:
+    """A key in ``[0, hi]`` (file units) times ``scale``, filling the field ``attr``: the
+    shape of a sensor's noise densities and bias spreads."""
+    return ws.Number(ws.Interval(0.0, hi), default, scale).to(attr)
+
+
+def divergence(default_deg: float) -> ws.Number:
+    """The ``[scoring] divergence_deg`` key (filling ``divergence_rad``): a run whose final
+    angle error exceeds it counts as diverged."""
+    return ws.Number(ws.positive(180.0), default=default_deg, scale=DEG).to("divergence_rad")
+
+
+def attitude_sigma(attr: str, hi_deg: float = 45.0) -> ws.Vector:
+    """A filter's prior attitude σ per axis, in [0.01, ``hi_deg``] degrees in the file,
+    filling the field ``attr`` in radians."""
+    return ws.Vector(3, ws.Interval(0.01, hi_deg), scale=DEG).to(attr)
+
+
+def bias_sigma(hi_deg_h: float) -> ws.Number:
+    """The ``initial_bias_sigma_deg_h`` key: a filter's prior gyro-bias σ (deg/h in the
+    file, at most ``hi_deg_h``), filling ``initial_bias_sigma_rad_s``."""
+    return ws.Number(ws.positive(hi_deg_h), scale=DEG_H).to("initial_bias_sigma_rad_s")
