@@ -20,7 +20,7 @@ import re
 import signal
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
@@ -97,7 +97,7 @@ class _Group(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, False, **extra)
         own_process = args is None  # the `slam` command itself, not a test runner
-        if own_process and _preload_interrupted():
+        if own_process and _preload_interrupted() is not None:
             Interrupted().show()
             _exit(128 + signal.SIGINT, fast=True)
         try:
@@ -114,21 +114,39 @@ class _Group(click.Group):
         sys.exit(rv if isinstance(rv, int) else 0)
 
 
-def _preload_interrupted() -> bool:
-    """Import the heavy modules (numpy, GTSAM, matplotlib through the kinds) with Ctrl-C
-    held back: a ``KeyboardInterrupt`` raised inside a C extension's initialisation
-    turns into an ``ImportError`` and can abort the interpreter.  -> whether SIGINT or
-    SIGTERM arrived meanwhile (the caller then exits 130 at once)."""
+def _preload_interrupted() -> int | None:
+    """Import the command line's own modules with Ctrl-C held back (:func:`_held`)."""
+    return _held(_import_core)
+
+
+def _import_core() -> None:
+    import slam.campaign  # noqa: F401  (the registry and every kind's world schema)
+    import slam.render.output  # noqa: F401
+
+
+def _held(load: Callable[[], Any]) -> int | None:
+    """Run ``load`` (imports of numpy, SciPy, GTSAM, matplotlib) with SIGINT and SIGTERM
+    held back: a ``KeyboardInterrupt`` raised inside a C extension's initialisation turns
+    into an ``ImportError`` and can abort the interpreter.  -> the signal that arrived
+    meanwhile, if any (the caller then stops at once)."""
     caught: list[int] = []
     old = {s: signal.signal(s, lambda signum, _frame: caught.append(signum))
            for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        import slam.campaign  # noqa: F401  (the registry and every kind with it)
-        import slam.render.output  # noqa: F401
+        load()
     finally:
         for s, handler in old.items():
             signal.signal(s, handler)
-    return bool(caught)
+    return caught[0] if caught else None
+
+
+def _load_kind(kind, caught: dict[str, int]) -> None:
+    """Import the kind's run and report modules (deferred until a world of it is valid)
+    with the signals held back; a signal meanwhile stops the command as it would have."""
+    signum = _held(kind.load)
+    if signum is not None:
+        caught["signum"] = signum
+        raise KeyboardInterrupt
 
 
 def _exit(code: int, fast: bool = False) -> None:
@@ -238,20 +256,25 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
-            _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file)
+            _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
+                 caught)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
-         mode: str | None, log_file: str | None) -> None:
+         mode: str | None, log_file: str | None, caught: dict[str, int]) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
+        from slam.registry import log_kind
+
+        _load_kind(log_kind(), caught)
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
+        _load_kind(kind, caught)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:

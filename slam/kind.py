@@ -9,8 +9,9 @@ registry, so adding a kind is one folder plus one registration.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any, Protocol
@@ -40,6 +41,34 @@ class Summarize(Protocol):
 
 
 @dataclass(frozen=True)
+class Deferred:
+    """``"package.module:attribute"``, imported when first used.
+
+    A kind's run, summary and report modules pull in SciPy, GTSAM and matplotlib (about a
+    second and a half of start-up), which a command that only validates or lists worlds
+    never needs; the kind names them with a :class:`Deferred` instead of importing them.
+    Calling it calls the attribute, reading an attribute of it reads the attribute's
+    (so ``kind.report.text_table(...)`` works either way); :meth:`Kind.load` imports every
+    deferred part at once.
+    """
+
+    target: str
+
+    def load(self) -> Any:
+        """The attribute, imported (``ImportError`` / ``AttributeError`` if it is not there)."""
+        module, _, attribute = self.target.partition(":")
+        return getattr(importlib.import_module(module), attribute)
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self.load()(*args, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name == "target":  # copy/pickle probes; no recursion
+            raise AttributeError(name)
+        return getattr(self.load(), name)
+
+
+@dataclass(frozen=True)
 class Kind:
     """One scenario kind.
 
@@ -49,6 +78,7 @@ class Kind:
     parse : validates a world document of this kind (:data:`Parser`).
     run_once, summarize : one Monte Carlo run; the campaign summary.
     report : the report's sections, figures, terminal table and extra files.
+        ``run_once``, ``summarize``, ``report`` and ``open_log`` may be :class:`Deferred`.
     modes : the filter modes a world of this kind can run (``[filters] mode``,
         ``--mode``); empty when the kind has none.
     mode_filters : filters each non-default mode supports (mode -> names); a mode not
@@ -61,10 +91,18 @@ class Kind:
 
     name: str
     parse: Parser
-    run_once: RunOnce
-    summarize: Summarize
-    report: KindReport
+    run_once: RunOnce | Deferred
+    summarize: Summarize | Deferred
+    report: KindReport | Deferred
     modes: tuple[str, ...] = ()
     mode_filters: dict[str, tuple[str, ...]] | None = None
-    open_log: Callable[[Path, Sequence[str] | None, str | None], Any] | None = None
+    open_log: Callable[[Path, Sequence[str] | None, str | None], Any] | Deferred | None = None
     filters: tuple[str, ...] = FILTER_NAMES
+
+    def load(self) -> None:
+        """Import every :class:`Deferred` part now (the command line does it with Ctrl-C
+        held back, before a campaign starts)."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, Deferred):
+                value.load()

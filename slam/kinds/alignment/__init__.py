@@ -2,10 +2,10 @@
 quaternion error model with the UT-H∞ filter vs the UKF (plus SRCKF, SR-CH∞KF, EKF) and a
 GTSAM CombinedImuFactor smoother ([Wu-Wang 2014])."""
 
-from slam.kind import Kind
-from slam.kinds.alignment.report import REPORT
-from slam.kinds.alignment.run import run_once, summarize
+from slam.kind import Deferred, Kind
 from slam.kinds.alignment.world import KIND as NAME
 from slam.kinds.alignment.world import NAMES, parse
 
-KIND = Kind(NAME, parse, run_once, summarize, REPORT, filters=NAMES)
+KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
+            Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"),
+            filters=NAMES)

@@ -2,10 +2,10 @@
 INS/UQ-CKF/UKF (unit-quaternion INS error state, GNSS aiding), SRCKF and EKF baselines,
 GTSAM CombinedImuFactor smoother ([Fixed-wing EA-UKF])."""
 
-from slam.kind import Kind
-from slam.kinds.fixed_wing.report import REPORT
-from slam.kinds.fixed_wing.run import run_once, summarize
+from slam.kind import Deferred, Kind
 from slam.kinds.fixed_wing.world import FILTERS, parse
 from slam.kinds.fixed_wing.world import KIND as NAME
 
-KIND = Kind(NAME, parse, run_once, summarize, REPORT, filters=FILTERS)
+KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
+            Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"),
+            filters=FILTERS)

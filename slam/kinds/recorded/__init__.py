@@ -49,11 +49,10 @@ Scoring (:func:`score_filter`)
     filter epochs, and its whole-log time.
 """
 
-from slam.kind import Kind
+from slam.kind import Deferred, Kind
 from slam.kinds.planar.variants import PLANAR_FILTERS, PLANAR_LOCAL_FILTERS
-from slam.kinds.recorded.report import REPORT
 from slam.kinds.recorded.run import KIND as NAME
-from slam.kinds.recorded.run import MODES, open_log, run_once, summarize
+from slam.kinds.recorded.run import MODES
 
 
 def _no_world_file(data, name, source, base):
@@ -63,5 +62,7 @@ def _no_world_file(data, name, source, base):
                      "not from a world file", data.get("kind"))
 
 
-KIND = Kind(NAME, _no_world_file, run_once, summarize, REPORT, MODES,
-            {"local": PLANAR_LOCAL_FILTERS}, open_log, filters=PLANAR_FILTERS)
+KIND = Kind(NAME, _no_world_file, Deferred(f"{__name__}.run:run_once"),
+            Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"), MODES,
+            {"local": PLANAR_LOCAL_FILTERS}, Deferred(f"{__name__}.run:open_log"),
+            filters=PLANAR_FILTERS)
