@@ -87,8 +87,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, minimize_scalar
 
 Array = NDArray[np.float64]
 
@@ -237,6 +235,9 @@ def fly(spec: FlightSpec, k: float) -> Flight:
     v0 = spec.speed_mps * np.array([math.cos(spec.pitch_rad) * math.cos(spec.yaw_rad),
                                     math.sin(spec.pitch_rad),
                                     -math.cos(spec.pitch_rad) * math.sin(spec.yaw_rad)])
+    from scipy.integrate import solve_ivp  # here: the world schema imports this module
+    from scipy.optimize import brentq
+
     sol = solve_ivp(rhs, (0.0, 1000.0), np.concatenate([np.zeros(3), v0]), method="DOP853",
                     rtol=1e-11, atol=1e-9, events=ground, dense_output=True)
     if not sol.t_events[0].size:
@@ -259,6 +260,8 @@ def _misfit(spec: FlightSpec, k: float) -> float:
 def calibrate_drag(spec: FlightSpec) -> float:
     """The :math:`k` (1/m) minimising the summed squared relative misses of flight time,
     range and apex (one parameter, three targets: a least-squares fit, not an exact one)."""
+    from scipy.optimize import minimize_scalar
+
     res = minimize_scalar(lambda k: _misfit(spec, k), bounds=(1e-7, 1e-3), method="bounded",
                           options={"xatol": 1e-12})
     return float(res.x)
