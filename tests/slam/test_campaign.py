@@ -49,12 +49,12 @@ def test_an_unregistered_kind_is_refused():
         run_campaign(Nowhere(), runs=1, seed=0, filters=["ekf"])
 
 
-def test_dask_local_cluster_matches_the_local_pool():
+def test_dask_cluster_matches_a_campaign_in_this_process():
     distributed = pytest.importorskip("dask.distributed")
 
     world = small_world(runs=3, filters=("ekf", "srckf"))
-    local = run_campaign(world, workers=2)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    local = run_campaign(world, workers=1)  # = the pool's (test_cli_safety: any executor)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
         mapper, client = dask_mapper(cluster.scheduler_address)
         try:
