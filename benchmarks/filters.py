@@ -14,19 +14,17 @@ Usage: ``python -m benchmarks.filters [--steps 300] [--sizes 6 23 63]``.
 
 from __future__ import annotations
 
-import os
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import json
+import math
+import time
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import time  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from estimators import (  # noqa: E402
+from estimators import (
     FILTER_NAMES,
     Measurement,
     Noise,

@@ -14,21 +14,20 @@ loaded machine CPU times are less disturbed than wall times, but both grow with 
 
 from __future__ import annotations
 
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
+
+# isort: split
+import argparse
+import json
 import os
+import platform
+import time
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import platform  # noqa: E402
-import time  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from slam.kinds.fixed_wing import run as fr  # noqa: E402
-from slam.kinds.fixed_wing.simulate import simulate, truth_of  # noqa: E402
-from slam.registry import load_world  # noqa: E402
+from slam.kinds.fixed_wing import run as fr
+from slam.kinds.fixed_wing.simulate import simulate, truth_of
+from slam.registry import load_world
 
 
 def _cpu(fn, *args):

@@ -33,19 +33,17 @@ Usage: ``python -m benchmarks.robustness [--runs 100] [--factor 5] [--gammas 5 3
 
 from __future__ import annotations
 
-import os
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import json
+import time
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import time  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from estimators import Euclidean, Measurement, Noise, Transition  # noqa: E402
-from estimators.filters import make_filter  # noqa: E402
+from estimators import Euclidean, Measurement, Noise, Transition
+from estimators.filters import make_filter
 
 INC, DEC = np.deg2rad(-48.17), np.deg2rad(2.32)
 DT, T_FLIGHT = 0.1, 87.5

@@ -20,27 +20,26 @@ times, but both grow with the load.
 
 from __future__ import annotations
 
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
+
+# isort: split
+import argparse
+import json
 import os
+import platform
+import time
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import platform  # noqa: E402
-import time  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from slam.kinds.ship import KIND  # noqa: E402
-from slam.kinds.ship.models import (  # noqa: E402
+from slam.kinds.ship import KIND
+from slam.kinds.ship.models import (
     earth_rate_transition,
     treatment,
     vector_measurement,
 )
-from slam.kinds.ship.run import estimators, initial_belief, run_filter, run_once  # noqa: E402
-from slam.kinds.ship.simulate import simulate_ship  # noqa: E402
-from slam.registry import load_world, register  # noqa: E402
+from slam.kinds.ship.run import estimators, initial_belief, run_filter, run_once
+from slam.kinds.ship.simulate import simulate_ship
+from slam.registry import load_world, register
 
 
 def estimator_times(world, logs: int) -> dict[str, dict]:

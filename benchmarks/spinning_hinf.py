@@ -17,24 +17,22 @@ Usage: ``python -m benchmarks.spinning_hinf [--runs 5] [--gammas 0.5 1 2]
 
 from __future__ import annotations
 
-import os
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import json
+import math
+import time
+from dataclasses import replace
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import time  # noqa: E402
-from dataclasses import replace  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from estimators import wrap_angle  # noqa: E402
-from slam.kinds.spinning import KIND  # noqa: E402
-from slam.kinds.spinning.models import run_filter, world_models  # noqa: E402
-from slam.kinds.spinning.simulate import sim_config, simulate  # noqa: E402
-from slam.registry import load_world, register  # noqa: E402
+from estimators import wrap_angle
+from slam.kinds.spinning import KIND
+from slam.kinds.spinning.models import run_filter, world_models
+from slam.kinds.spinning.simulate import sim_config, simulate
+from slam.registry import load_world, register
 
 CASES = (("magnetometer", "gaussian"), ("gyro", "gaussian"), ("both", "gaussian"),
          ("magnetometer", "student-t"), ("magnetometer", "contaminated"))

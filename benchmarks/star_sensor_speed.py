@@ -16,20 +16,18 @@ Usage: ``python -m benchmarks.star_sensor_speed [--filters srckf,srukf,srcdkf,ek
 
 from __future__ import annotations
 
-import os
+import benchmarks.single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import json
+import platform
+import time
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import platform  # noqa: E402
-import time  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from estimators import make_filter  # noqa: E402
-from slam.kinds.attitude.run import (  # noqa: E402
+from estimators import make_filter
+from slam.kinds.attitude.run import (
     STATE,
     initial_belief,
     interval_transition,
@@ -37,8 +35,8 @@ from slam.kinds.attitude.run import (  # noqa: E402
     star_measurement,
     star_observation,
 )
-from slam.kinds.attitude.simulate import simulate_attitude  # noqa: E402
-from worlds import load_world  # noqa: E402
+from slam.kinds.attitude.simulate import simulate_attitude
+from slam.registry import load_world
 
 
 def cycle_times(world, name: str, repeats: int, seed: int = 0) -> np.ndarray:

@@ -7,7 +7,7 @@ import copy
 import hashlib
 import random
 import tomllib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -174,3 +174,27 @@ def pick(rng: random.Random, doc: dict[str, Any], want: Callable[[Any], bool],
     if keyed and rng.random() < 0.75:
         pool = keyed
     return rng.choice(pool)
+
+
+def seeded_families(n: int, seed: int, stream: str,
+                    names: list[str]) -> Iterator[tuple[random.Random, str]]:
+    """For case ``i`` of ``n``: its generator (seeded by ``seed``, the ``stream``'s name and
+    ``i``) and its family, ``names[i mod F]``."""
+    for i in range(n):
+        yield random.Random(f"{seed}:{stream}:{i}"), names[i % len(names)]
+
+
+ELF_HEADER = ("ELF header", b"\x7fELF\x02\x01\x01" + bytes(57))
+"""The junk variant that is an executable's header."""
+
+
+def binary_junk(rng: random.Random, text: bytes, at: int) -> list[tuple[str, bytes]]:
+    """Named binary variants of ``text``: random bytes, and a NUL byte or invalid UTF-8
+    inserted at byte ``at``, the text in UTF-16, behind a UTF-8 BOM."""
+    return [
+        ("random bytes", rng.randbytes(rng.choice([1, 64, 4096]))),
+        ("NUL byte inserted", text[:at] + b"\x00" + text[at:]),
+        ("invalid UTF-8 inserted", text[:at] + b"\xff\xfe" + text[at:]),
+        ("UTF-16 encoded", text.decode().encode("utf-16")),
+        ("UTF-8 BOM", b"\xef\xbb\xbf" + text),
+    ]

@@ -13,7 +13,7 @@ import random
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import Case
+from .core import ELF_HEADER, Case, binary_junk, seeded_families
 
 FIELDS = {
     "ODOMETRY": ("tag", "i", "j", "dx", "dy", "dθ", "cxx", "cxy", "cxθ", "cyy", "cyθ", "cθθ"),
@@ -196,14 +196,7 @@ def fam_binary(rng: random.Random, lines: list[str]) -> Result:
     """Binary junk, NUL bytes, invalid UTF-8, UTF-16, a BOM."""
     text = _join(lines)
     at = rng.randrange(len(text))
-    name, data = rng.choice([
-        ("random bytes", rng.randbytes(rng.choice([1, 64, 4096]))),
-        ("NUL byte inserted", text[:at] + b"\x00" + text[at:]),
-        ("invalid UTF-8 inserted", text[:at] + b"\xff\xfe" + text[at:]),
-        ("UTF-16 encoded", text.decode().encode("utf-16")),
-        ("UTF-8 BOM", b"\xef\xbb\xbf" + text),
-        ("ELF header", b"\x7fELF\x02\x01\x01" + bytes(57)),
-    ])
+    name, data = rng.choice([*binary_junk(rng, text, at), ELF_HEADER])
     return f"{name} (at byte {at})", data
 
 
@@ -254,11 +247,8 @@ LOG_FAMILIES: dict[str, LogFamily] = {
 def log_cases(n: int, seed: int, lines: list[str],
               families: list[str] | None = None) -> list[Case]:
     """``n`` log cases for ``seed``: case ``i`` uses family ``i mod F``."""
-    names = families or list(LOG_FAMILIES)
     out = []
-    for i in range(n):
-        rng = random.Random(f"{seed}:log:{i}")
-        family = names[i % len(names)]
+    for rng, family in seeded_families(n, seed, "log", families or list(LOG_FAMILIES)):
         name, result = LOG_FAMILIES[family](rng, lines)
         if isinstance(result, str):
             out.append(Case("log", family, name, "victoria", None, target=result))

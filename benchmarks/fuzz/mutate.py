@@ -20,7 +20,20 @@ from collections.abc import Callable
 from typing import Any
 
 from . import shapes, tomlio
-from .core import Base, Case, KeyPath, cheapen, dotted, get, is_num, load_bases, pick, put, render
+from .core import (
+    Base,
+    Case,
+    KeyPath,
+    cheapen,
+    dotted,
+    get,
+    is_num,
+    load_bases,
+    pick,
+    put,
+    render,
+    seeded_families,
+)
 from .logmutate import LOG_FAMILIES, load_log_lines, log_cases
 
 __all__ = ["Base", "Case", "WORLD_FAMILIES", "LOG_FAMILIES", "load_bases", "load_log_lines",
@@ -222,11 +235,8 @@ WORLD_FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {
 def world_cases(n: int, seed: int, bases: list[Base],
                 families: list[str] | None = None) -> list[Case]:
     """``n`` world cases for ``seed``: case ``i`` uses family ``i mod F`` and a seeded base."""
-    names = families or list(WORLD_FAMILIES)
     out = []
-    for i in range(n):
-        rng = random.Random(f"{seed}:world:{i}")
-        family = names[i % len(names)]
+    for rng, family in seeded_families(n, seed, "world", families or list(WORLD_FAMILIES)):
         base = bases[rng.randrange(len(bases))]
         out.append(WORLD_FAMILIES[family](rng, base))
     return out

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from . import tomlio
-from .core import Base, Case, dotted, pick, put, render
+from .core import ELF_HEADER, Base, Case, binary_junk, dotted, pick, put, render
 
 Doc = dict[str, Any]
 Edit = Callable[[Doc, dict[str, bytes]], str]
@@ -269,16 +269,12 @@ def fam_binary(rng: random.Random, base: Base) -> Case:
     text = tomlio.dumps(base.doc).encode()
     at = rng.randrange(len(text))
     name, data = rng.choice([
-        ("random bytes", rng.randbytes(rng.choice([1, 64, 4096]))),
-        ("NUL byte inserted", text[:at] + b"\x00" + text[at:]),
-        ("invalid UTF-8 inserted", text[:at] + b"\xff\xfe" + text[at:]),
-        ("UTF-16 encoded", text.decode().encode("utf-16")),
-        ("UTF-8 BOM", b"\xef\xbb\xbf" + text),
+        *binary_junk(rng, text, at),
         ("empty file", b""),
         ("truncated", text[:at]),
         ("CRLF line ends", text.replace(b"\n", b"\r\n")),
         ("lone CR line ends", text.replace(b"\n", b"\r")),
-        ("ELF header", b"\x7fELF\x02\x01\x01" + bytes(57)),
+        ELF_HEADER,
     ])
     return render(base, "binary", f"{name} (at byte {at})", text=data)
 

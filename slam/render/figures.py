@@ -41,7 +41,7 @@ from slam.render.plotting import (
     ErrorGrid,
     ErrorPanel,
     bottom_legend,
-    envelope,
+    envelope_and_run0,
     error_grid,
     estimator_colours,
     filter_names,
@@ -54,7 +54,6 @@ from slam.render.plotting import (
 )
 from slam.render.series import (
     Component,
-    good_scores,
     map_per_epoch,
     paired_differences,
     rms,
@@ -207,11 +206,8 @@ def error_grid_figure(columns: Sequence[Component], title: str, *,
         settle = int(np.searchsorted(first.times, first.times[0] + settle_s))
 
         def panel(name: str, col: int) -> ErrorPanel:
-            c, sc0 = columns[col], first.scores.get(name)
-            env = envelope(good_scores(result, name), c.err)
-            shown = None
-            if sc0 is not None and not sc0.diverged and c.sigma is not None:
-                shown = (c.err(sc0), c.sigma(sc0))
+            c = columns[col]
+            env, shown = envelope_and_run0(result, name, c.err, c.sigma)
             note = "diverged on every run" if env is None else "diverged on run 0"
             smoother = None if ref is None or ref.diverged else c.err(ref)
             return ErrorPanel(env, shown, note if col == 0 else "", smoother,

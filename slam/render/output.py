@@ -70,11 +70,30 @@ def render(result: CampaignResult, kr: KindReport, out_dir: Path, *, plots: bool
     return [SUMMARY, "report.md", "report.html", *figures, *extra]
 
 
-def tum_text(rows: np.ndarray) -> str:
+def tum_text(rows: np.ndarray, header: str = "") -> str:
     """TUM trajectory lines from rows ``[t, x, y, z, qx, qy, qz, qw]``: the time to the
-    microsecond, the rest to 9 significant digits."""
-    return "".join(" ".join(f"{v:.9g}" if j else f"{v:.6f}" for j, v in enumerate(r)) + "\n"
-                   for r in rows)
+    microsecond, the rest to 9 significant digits; after ``header`` as ``#`` comment
+    lines."""
+    return "".join(f"# {line}\n" for line in header.splitlines()) + "".join(
+        " ".join(f"{v:.9g}" if j else f"{v:.6f}" for j, v in enumerate(r)) + "\n"
+        for r in rows)
+
+
+def tum_names(result: CampaignResult) -> list[str]:
+    """The run-0 trajectories a kind writes as TUM files: ``truth`` and every estimator run 0
+    tracked (none where run 0 kept no truth)."""
+    first = result.outcomes[0]
+    if first.truth is None or first.times is None:
+        return []
+    return ["truth", *first.tracks]
+
+
+def tum_header(result: CampaignResult, name: str, frame: str = "") -> str:
+    """The comment line heading run 0's TUM file of ``name``: world, run, seed, the
+    ``frame`` note (e.g. ``"ENU, q_nb; "``) and the columns."""
+    s = result.summary
+    return (f"{s.get('world', '')}: {name}, run 0 of {s.get('runs', len(result.outcomes))} "
+            f"(seed {s.get('seed', '?')}); {frame}columns t x y z qx qy qz qw")
 
 
 def write_tum(out_dir: Path, trajectories: Iterable[tuple[str, str]]) -> list[str]:

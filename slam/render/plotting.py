@@ -103,6 +103,59 @@ def envelope(scores: list, values: Callable) -> tuple[Array, Array] | None:
         return np.nanmin(a, axis=0), np.nanmax(a, axis=0)
 
 
+def envelope_and_run0(result: CampaignResult, name: str, err: Callable,
+                      sigma: Callable | None) -> tuple[tuple[Array, Array] | None,
+                                                       tuple[Array, Array] | None]:
+    """The Monte Carlo :func:`envelope` of ``err(scores)`` over the runs ``name`` did not
+    diverge on, and run 0's ``(err, sigma)`` (None where run 0 has no scores of ``name``,
+    diverged, or ``sigma`` is None)."""
+    s0 = result.outcomes[0].scores.get(name)
+    shown = None
+    if s0 is not None and not s0.diverged and sigma is not None:
+        shown = (err(s0), sigma(s0))
+    return envelope(good_scores(result, name), err), shown
+
+
+def estimator_lines(axes: Sequence[plt.Axes], t: Array, names: Sequence[str],
+                    colours: dict[str, str], series: Callable[[str], Array | None],
+                    column: Callable[[str, Array, int], Array | None] | None = None,
+                    style: Callable[[str], str] = lambda name: "-") -> None:
+    """One line per estimator in ``names`` with a ``series(name)`` in every panel of
+    ``axes``: panel ``col`` draws ``column(name, series, col)`` (default: column ``col``
+    of a 2-d series, a 1-d one whole; None: not drawn).  The first estimator is drawn
+    widest and each next one thinner, so coinciding estimators stay visible."""
+    for k, name in enumerate(names):
+        y = series(name)
+        if y is None:
+            continue
+        lw = 0.9 + 1.6 * (len(names) - 1 - k) / max(len(names) - 1, 1)
+        for col, ax in enumerate(axes):
+            yc = (y if y.ndim == 1 else y[:, col]) if column is None else column(name, y, col)
+            if yc is not None:
+                ax.plot(t, yc, color=colours[name], lw=lw, ls=style(name), label=name)
+
+
+def log_time_panels(fig: plt.Figure, axes: Sequence[plt.Axes], result: CampaignResult,
+                    titles: Sequence[str], levels: Sequence[float | None], ylabel: str,
+                    title: str, path, ncols: int) -> None:
+    """Finish and save a row of log-scale panels vs time: panel titles, a dotted line at
+    each panel's level (where it is a number), the first panel's lines as a bottom legend
+    of at most ``ncols`` columns and the figure's ``title``."""
+    for ax, what, level in zip(axes, titles, levels):
+        ax.set_yscale("log")
+        if isinstance(level, int | float):
+            ax.axhline(level, color="0.3", ls=":", lw=1.0)
+        ax.set_title(what, fontsize=10)
+        ax.set_xlabel("time (s)")
+        ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    axes[0].set_ylabel(ylabel)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), ncols),
+               fontsize=8, frameon=False)
+    fig.suptitle(titled(result, title), fontsize=11)
+    save(fig, path)
+
+
 def nees_band_axes(ax: plt.Axes, result: CampaignResult, dof: int, what: str) -> None:
     """Finish a run-averaged NEES / ``dof`` panel: the 95 % band of the campaign's runs
     shaded, a log axis, labels, legend and the title ``what``."""

@@ -60,6 +60,18 @@ def good_scores(result: CampaignResult, name: str) -> list[Scores]:
             if name in o.scores and not o.scores[name].diverged]
 
 
+def run_statistic(result: CampaignResult, name: str,
+                  statistic: Callable[[Array], Array]) -> Array | None:
+    """``statistic`` of the (R, E, k) stack of ``name``'s ``err`` arrays over the runs it
+    did not diverge on (NaN warnings silenced); None if it diverged on every run."""
+    scores = good_scores(result, name)
+    if not scores:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # epochs with no value in any run
+        return statistic(np.stack([s.err for s in scores]))
+
+
 def n_epochs(result: CampaignResult) -> int:
     """Epochs of run 0 (the time axis every figure uses)."""
     t = result.outcomes[0].times

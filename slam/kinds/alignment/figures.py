@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -25,17 +24,19 @@ from slam.kinds.alignment.scoring import ARCMIN, AXES
 from slam.render.plotting import (
     ErrorGrid,
     ErrorPanel,
-    envelope,
+    envelope_and_run0,
     error_grid,
     estimator_colours,
+    estimator_lines,
     good_scores,
+    log_time_panels,
     nees_band_axes,
     plt,
     run0,
     run_average,
     save,
-    titled,
 )
+from slam.render.series import run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
 
 SETTLE_S = 10.0
@@ -71,11 +72,8 @@ def plot_errors(result: CampaignResult, path: Path) -> None:
                      groups=((0, 1),))
 
     def panel(name: str, col: int) -> ErrorPanel:
-        s0 = first.scores.get(name)
-        env = envelope(good_scores(result, name), lambda s: s.err[:, col] / ARCMIN)
-        shown = None
-        if s0 is not None and not s0.diverged:
-            shown = (s0.err[:, col] / ARCMIN, s0.sigma[:, col] / ARCMIN)
+        env, shown = envelope_and_run0(result, name, lambda s: s.err[:, col] / ARCMIN,
+                                       lambda s: s.sigma[:, col] / ARCMIN)
         joined = None if ref is None else _joined(t, ref.err[:, col] / ARCMIN)
         return ErrorPanel(env, shown, "" if shown else "diverged on run 0", joined,
                           _paper(result.summary, name, col), settle if col < 2 else 0)
@@ -84,44 +82,23 @@ def plot_errors(result: CampaignResult, path: Path) -> None:
     error_grid(result, path, grid, panel, estimator_colours(_names(result)), names)
 
 
-def _rms(result: CampaignResult, name: str) -> Array | None:
-    scores = good_scores(result, name)
-    if not scores:
-        return None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return np.sqrt(np.nanmean(np.stack([s.err for s in scores]) ** 2, axis=0)) / ARCMIN
-
-
 def plot_rms(result: CampaignResult, path: Path) -> None:
     """``rms.png`` (module docstring)."""
     t = run0(result).times
     names = _names(result)
-    colours = estimator_colours(names)
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), layout="constrained")
-    for k, name in enumerate(names):
-        rms = _rms(result, name)
-        if rms is None:
-            continue
-        lw = 0.9 + 1.6 * (len(names) - 1 - k) / max(len(names) - 1, 1)
-        for col, ax in enumerate(axes):
-            y = rms[:, col] if name != REFERENCE else _joined(t, rms[:, col])
-            if y is not None:
-                ax.plot(t, y, color=colours[name], lw=lw, label=name)
+
+    def rms(name: str) -> Array | None:
+        return run_statistic(result, name, lambda e: np.sqrt(np.nanmean(e**2, axis=0)) / ARCMIN)
+
+    def column(name: str, y: Array, col: int) -> Array | None:
+        return y[:, col] if name != REFERENCE else _joined(t, y[:, col])
+
+    estimator_lines(axes, t, names, estimator_colours(names), rms, column)
     tilt = (result.summary.get("limits") or {}).get("tilt_limit_arcmin")
-    for col, (ax, axis) in enumerate(zip(axes, AXES)):
-        ax.set_yscale("log")
-        if col < 2 and isinstance(tilt, int | float):
-            ax.axhline(tilt, color="0.3", ls=":", lw=1.0)
-        ax.set_title(f"{axis}: RMS over runs", fontsize=10)
-        ax.set_xlabel("time (s)")
-        ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    axes[0].set_ylabel("arcmin")
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 6),
-               fontsize=8, frameon=False)
-    fig.suptitle(titled(result, "misalignment RMS (dotted: the level limit ∇/g)"), fontsize=11)
-    save(fig, path)
+    log_time_panels(fig, axes, result, [f"{axis}: RMS over runs" for axis in AXES],
+                    (tilt, tilt, None), "arcmin",
+                    "misalignment RMS (dotted: the level limit ∇/g)", path, 6)
 
 
 def plot_nees(result: CampaignResult, path: Path) -> None:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q, qto_dcm
 from slam.kinds.alignment.simulate import AlignmentLog
 from slam.kinds.alignment.world import AlignmentWorld
@@ -53,18 +54,13 @@ class SmoothSeries:
     marginals_failure: str | None = None
 
 
-def _params(gtsam: Any, world: AlignmentWorld, log: AlignmentLog) -> Any:
+def _params(world: AlignmentWorld, log: AlignmentLog) -> Any:
     m, dt = world.imu, log.dt
-    p = gtsam.PreintegrationCombinedParams.MakeSharedU(float(-log.gravity[2]))
-    p.setGyroscopeCovariance(max(m.gyro_white_rad_s**2 * dt, 1e-24) * np.eye(3))
-    p.setAccelerometerCovariance(max(m.accel_white_mps2**2 * dt, 1e-24) * np.eye(3))
-    p.setIntegrationCovariance(1e-10 * np.eye(3))
-    p.setBiasOmegaCovariance(max(2 * m.gyro_markov_rad_s**2 / m.gyro_markov_tau_s, 1e-24)
-                             * np.eye(3))
-    p.setBiasAccCovariance(max(2 * m.accel_markov_mps2**2 / m.accel_markov_tau_s, 1e-24)
-                           * np.eye(3))
-    p.setOmegaCoriolis(np.asarray(log.earth_rate, dtype=float))
-    return p
+    return combined_params(float(-log.gravity[2]), m.gyro_white_rad_s**2 * dt,
+                           m.accel_white_mps2**2 * dt,
+                           2 * m.gyro_markov_rad_s**2 / m.gyro_markov_tau_s,
+                           2 * m.accel_markov_mps2**2 / m.accel_markov_tau_s,
+                           earth_rate=log.earth_rate, integration_var=1e-10, floor=1e-24)
 
 
 def _priors(gtsam: Any, graph: Any, world: AlignmentWorld, q0: Array) -> None:
@@ -90,7 +86,7 @@ def _build(gtsam: Any, world: AlignmentWorld, log: AlignmentLog) -> tuple[Any, A
     X, V, B = ([gtsam.symbol(c, k) for k in range(len(idx))] for c in "xvb")
     graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
     _priors(gtsam, graph, world, log.sins_q[0])
-    params = _params(gtsam, world, log)
+    params = _params(world, log)
     vel = gtsam.noiseModel.Isotropic.Sigma(3, world.filters.velocity_sigma_mps)
     pos = gtsam.noiseModel.Isotropic.Sigma(3, world.reference.position_sigma_m)
     n = every * s

@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.arrays import read_only
 from nav.imu_errors import first_order_markov
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate, qto_dcm, skew
 from nav.strapdown import G0, earth_rate_enu, gravity_enu, hamilton, prefix_products
@@ -64,12 +65,6 @@ Array = NDArray[np.float64]
 
 __all__ = ["AlignmentLog", "Increments", "increments", "markov", "mechanise",
            "simulate_alignment", "sway_attitude", "wind_velocity"]
-
-
-def _ro(a: Array) -> Array:
-    a = np.ascontiguousarray(a)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,9 +179,9 @@ def increments(gyro: Array, accel: Array, s: int, dt: float) -> Increments:
     A_i = np.swapaxes(C, -1, -2) @ S_before
     A = np.swapaxes(C_end, -1, -2) @ S[:, -1]
     B_gyro = (C @ skew(f) @ A_i).sum(axis=1) * dt
-    return Increments(dq=_ro(dR[:, -1]), A=_ro(A), dv=_ro(Cf.sum(axis=1)),
-                      dv1=_ro(np.einsum("i,jia->ja", tau, Cf)), B_acc=_ro(C.sum(axis=1) * dt),
-                      B_gyro=_ro(B_gyro))
+    return Increments(dq=read_only(dR[:, -1]), A=read_only(A), dv=read_only(Cf.sum(axis=1)),
+                      dv1=read_only(np.einsum("i,jia->ja", tau, Cf)),
+                      B_acc=read_only(C.sum(axis=1) * dt), B_gyro=read_only(B_gyro))
 
 
 def mechanise(q0: Array, inc: Increments, T: float, gravity: Array, earth_rate: Array
@@ -247,9 +242,9 @@ def simulate_alignment(world: AlignmentWorld, rng: np.random.Generator,
     inc = increments(gyro, accel, s, dt)
     sins_q, sins_v = mechanise(qmul(qexp(-phi0), q[0]), inc, T, g, wie)
     epoch_k = np.minimum(np.arange(M) * s, N - 1)
-    return AlignmentLog(dt=dt, T=T, times=_ro(te), truth_q=_ro(q[::s]), truth_v=_ro(v),
-                        sins_q=_ro(sins_q), sins_v=_ro(sins_v),
-                        gyro_drift=_ro(noise_scale * drift[epoch_k]),
-                        accel_bias=_ro(noise_scale * bias[epoch_k]), inc=inc,
-                        earth_rate=_ro(wie), gravity=_ro(g), misalignment=_ro(phi0),
-                        gyro=_ro(gyro), accel=_ro(accel))
+    return AlignmentLog(dt=dt, T=T, times=read_only(te), truth_q=read_only(q[::s]),
+                        truth_v=read_only(v), sins_q=read_only(sins_q), sins_v=read_only(sins_v),
+                        gyro_drift=read_only(noise_scale * drift[epoch_k]),
+                        accel_bias=read_only(noise_scale * bias[epoch_k]), inc=inc,
+                        earth_rate=read_only(wie), gravity=read_only(g),
+                        misalignment=read_only(phi0), gyro=read_only(gyro), accel=read_only(accel))

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.arrays import read_only
 from nav.euler import euler_zxy_to_q
 from nav.quaternion import qconj, qexp, qlog, qmul, qnormalize, qrotate
 
@@ -109,18 +110,6 @@ class AttitudeSimConfig:
     def n_gyro(self) -> int:
         """Gyro samples, ``samples_per_star`` per star interval."""
         return (self.n_star - 1) * self.samples_per_star
-
-
-def _ro(a: Array) -> Array:
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    a.setflags(write=False)
-    return a
-
-
-def _ro_int(a: NDArray[np.int64]) -> NDArray[np.int64]:
-    a = np.ascontiguousarray(a, dtype=np.int64)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,14 +216,14 @@ def simulate_attitude(cfg: AttitudeSimConfig, rng: np.random.Generator) -> Attit
     return AttitudeLog(
         dt=dt,
         samples_per_star=s,
-        times=_ro(times),
-        gyro=_ro(gyro),
-        truth_q=_ro(q),
-        truth_bias=_ro(bias),
-        star_index=_ro_int(star_index),
-        star_times=_ro(times[star_index]),
-        star_q=None if star_q is None else _ro(star_q),
-        star_vectors=None if star_vec is None else _ro(star_vec),
-        star_refs=_ro(refs if cfg.star_mode == "vectors" else np.zeros((0, 3))),
+        times=read_only(times, np.float64),
+        gyro=read_only(gyro, np.float64),
+        truth_q=read_only(q, np.float64),
+        truth_bias=read_only(bias, np.float64),
+        star_index=read_only(star_index, np.int64),
+        star_times=read_only(times[star_index], np.float64),
+        star_q=None if star_q is None else read_only(star_q, np.float64),
+        star_vectors=None if star_vec is None else read_only(star_vec, np.float64),
+        star_refs=read_only(refs if cfg.star_mode == "vectors" else np.zeros((0, 3)), np.float64),
         metadata=meta,
     )

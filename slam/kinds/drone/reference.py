@@ -43,6 +43,7 @@ import numpy as np
 from gtsam.symbol_shorthand import B, L, V, X
 
 from estimators.linalg import Array
+from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q
 from slam.kinds.drone.filtering import DroneEstimate
 from slam.kinds.drone.simulate import DroneLog
@@ -57,8 +58,6 @@ RELIN_THRESHOLD = 0.1
 #: Epochs handed to iSAM2 per update (1 s at 5 Hz); within a batch each new state is
 #: predicted from the previous one by the preintegrated measurements.
 ISAM_BATCH = 5
-#: Variance floor of the preintegration densities (keeps a zero random walk finite).
-VAR_FLOOR = 1e-20
 
 
 def _rot(q: Array) -> gtsam.Rot3:
@@ -74,17 +73,10 @@ def preintegration_params(log: DroneLog, imu_noise_scale: float = 1.0
                           ) -> gtsam.PreintegrationCombinedParams:
     """Combined-IMU preintegration parameters of the log (densities the filters assume)."""
     n = log.imu_noise.scaled(imu_noise_scale)
-    g = float(-log.nav.gravity[2])
-    params = gtsam.PreintegrationCombinedParams.MakeSharedU(g)
-    eye = np.eye(3)
-    params.setGyroscopeCovariance(max(n.gyro_arw**2, VAR_FLOOR) * eye)
-    params.setAccelerometerCovariance(max(n.accel_vrw**2, VAR_FLOOR) * eye)
-    params.setIntegrationCovariance(1e-12 * eye)
-    params.setBiasOmegaCovariance(max(n.gyro_bias_rw**2, VAR_FLOOR) * eye)
-    params.setBiasAccCovariance(max(n.accel_bias_rw**2, VAR_FLOOR) * eye)
-    if log.nav.earth_rate is not None and np.any(log.nav.earth_rate):
-        params.setOmegaCoriolis(np.asarray(log.nav.earth_rate, float))
-    return params
+    rate = log.nav.earth_rate
+    return combined_params(float(-log.nav.gravity[2]), n.gyro_arw**2, n.accel_vrw**2,
+                           n.gyro_bias_rw**2, n.accel_bias_rw**2,
+                           earth_rate=rate if rate is not None and np.any(rate) else None)
 
 
 def bearing_range_noise(z: Array, obs_cov: Array) -> gtsam.noiseModel.Base:

@@ -39,7 +39,6 @@ from slam.kinds.drone.scene import (
     IMU_ONLY,
     drone_colours,
     result_terrain,
-    tum_names,
     write_scene_glb,
     write_tum_3d,
 )
@@ -50,6 +49,7 @@ from slam.render.figures import (
     figure_table,
     quoted_position_range,
 )
+from slam.render.output import tum_names
 from slam.render.plotting import (
     filter_names,
     good_scores,

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slam.render.output import tum_text, write_tum
+from slam.render.output import tum_header, tum_names, tum_text, write_tum
 from slam.render.plotting import EIGHT_COLOURS, estimator_colours, filter_names, run0
 from slam.results import REFERENCE, CampaignResult
 
@@ -112,16 +112,7 @@ def tum_text_3d(times: np.ndarray, p: np.ndarray, q: np.ndarray, header: str = "
     """TUM lines ``t x y z qx qy qz qw`` (scalar-last), non-finite rows left out, after
     ``header`` as ``#`` comment lines."""
     ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(q), axis=1)
-    body = tum_text(np.column_stack([times[ok], p[ok], q[ok][:, 1:], q[ok][:, :1]]))
-    return "".join(f"# {line}\n" for line in header.splitlines()) + body
-
-
-def tum_names(result: CampaignResult) -> list[str]:
-    """The trajectories :func:`write_tum_3d` writes: ``truth`` and run 0's estimators."""
-    first = result.outcomes[0]
-    if first.truth is None or first.times is None:
-        return []
-    return ["truth", *first.tracks]
+    return tum_text(np.column_stack([times[ok], p[ok], q[ok][:, 1:], q[ok][:, :1]]), header)
 
 
 def write_tum_3d(result: CampaignResult, out_dir: Path) -> list[str]:
@@ -133,9 +124,6 @@ def write_tum_3d(result: CampaignResult, out_dir: Path) -> list[str]:
         return []
     pq = {"truth": (first.truth[:, :3], first.truth[:, 6:10]),
           **{n: (tr.p, tr.q) for n, tr in first.tracks.items()}}
-    runs, s = result.summary.get("runs", len(result.outcomes)), result.summary
     return write_tum(out_dir, (
-        (n, tum_text_3d(first.times, *pq[n],
-                        f"{s.get('world', '')}: {n}, run 0 of {runs} (seed {s.get('seed', '?')}"
-                        "); ENU, q_nb; columns t x y z qx qy qz qw")) for n in names))
-
+        (n, tum_text_3d(first.times, *pq[n], tum_header(result, n, "ENU, q_nb; ")))
+        for n in names))

@@ -19,6 +19,7 @@ import numpy as np
 from slam.render.document import Figure
 from slam.render.figures import FigureSpec, figure_table
 from slam.render.plotting import estimator_colours, plt, save, titled
+from slam.render.series import good_scores
 from slam.results import REFERENCE, CampaignResult
 from slam.scoring import anees_band
 
@@ -30,11 +31,6 @@ def _names(result: CampaignResult, want: Callable[[str], bool] = lambda n: True)
     first = result.outcomes[0].scores
     names = [*(result.summary.get("filters") or {}), REFERENCE]
     return [n for n in names if n in first and want(n)]
-
-
-def _good(result: CampaignResult, name: str) -> list[Any]:
-    return [o.scores[name] for o in result.outcomes
-            if name in o.scores and not o.scores[name].diverged]
 
 
 def _shade(ax: Any, t: np.ndarray, turn: np.ndarray) -> None:
@@ -65,7 +61,7 @@ def _grid_figure(result: CampaignResult, path: Path, names: list[str],
     fig, axes = plt.subplots(max(len(names), 1), len(cols), sharex=True, squeeze=False,
                              figsize=(12.0, 1.0 + 1.6 * max(len(names), 1)))
     for i, name in enumerate(names):
-        good = _good(result, name)
+        good = good_scores(result, name)
         for j, (label, get, sig) in enumerate(cols):
             ax = axes[i, j]
             if good:
@@ -106,7 +102,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
     colours = estimator_colours(names)
     fig, axes = plt.subplots(1, 2, figsize=(12.0, 3.8), squeeze=False)
     for name in names:
-        good = _good(result, name)
+        good = good_scores(result, name)
         if not good:
             continue
         ax = axes[0, 0 if name.startswith("ea-") else 1]

@@ -30,12 +30,12 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
+from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q
 from slam.kinds.fixed_wing.simulate import FixedWingLog
 
 Array = np.ndarray
 ISAM_BATCH = 10
-VAR_FLOOR = 1e-20
 
 
 def _rot(q: Array) -> gtsam.Rot3:
@@ -45,16 +45,9 @@ def _rot(q: Array) -> gtsam.Rot3:
 def params(log: FixedWingLog) -> gtsam.PreintegrationCombinedParams:
     """Combined-IMU preintegration parameters (module docstring)."""
     imu = log.world.imu
-    p = gtsam.PreintegrationCombinedParams.MakeSharedU(float(-log.gravity[2]))
-    eye = np.eye(3)
-    p.setGyroscopeCovariance(max(imu.gyro_arw_rad_sqrt_s**2, VAR_FLOOR) * eye)
-    p.setAccelerometerCovariance(max(imu.accel_vrw_mps_sqrt_s**2, VAR_FLOOR) * eye)
-    p.setIntegrationCovariance(1e-12 * eye)
-    p.setBiasOmegaCovariance(max(imu.gyro_drift_rw_rad_s_sqrt_s**2, VAR_FLOOR) * eye)
-    p.setBiasAccCovariance(max(imu.accel_drift_rw_mps2_sqrt_s**2, VAR_FLOOR) * eye)
-    if log.earth_rate is not None:
-        p.setOmegaCoriolis(np.asarray(log.earth_rate, float))
-    return p
+    return combined_params(float(-log.gravity[2]), imu.gyro_arw_rad_sqrt_s**2,
+                           imu.accel_vrw_mps_sqrt_s**2, imu.gyro_drift_rw_rad_s_sqrt_s**2,
+                           imu.accel_drift_rw_mps2_sqrt_s**2, earth_rate=log.earth_rate)
 
 
 def _priors(x0: Array, P0: Array) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:

@@ -35,8 +35,8 @@ from slam.render.figures import (
     quoted_position_range,
     rmse_sigma_figure,
 )
+from slam.render.output import tum_header, tum_names, write_tum
 from slam.render.output import tum_text as tum_lines
-from slam.render.output import write_tum
 from slam.render.series import Component
 from slam.render.tables import (
     DIVERGED_SHORT,
@@ -195,29 +195,14 @@ def tum_text(times: Array, poses: Array, header: str = "") -> str:
     t, p = times[ok], poses[ok]
     half = 0.5 * p[:, 2]
     zero = np.zeros(len(t))
-    body = tum_lines(np.column_stack([t, p[:, 0], p[:, 1], zero, zero, zero, np.sin(half),
-                                      np.cos(half)]))
-    return "".join(f"# {line}\n" for line in header.splitlines()) + body
-
-
-def tum_header(result: CampaignResult, name: str) -> str:
-    """The comment line heading every TUM file: which run, which estimator."""
-    runs = result.summary.get("runs", len(result.outcomes))
-    return (f"{result.summary.get('world', '')}: {name}, run 0 of {runs} (seed "
-            f"{result.summary.get('seed', '?')}); columns t x y z qx qy qz qw")
-
-
-def _tum_names(result: CampaignResult) -> list[str]:
-    first = result.outcomes[0]
-    if first.truth is None or first.times is None:
-        return []
-    return ["truth", *first.tracks]
+    return tum_lines(np.column_stack([t, p[:, 0], p[:, 1], zero, zero, zero, np.sin(half),
+                                      np.cos(half)]), header)
 
 
 def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
     """``truth.tum`` and ``<name>.tum`` for every estimator tracked on run 0."""
     first = result.outcomes[0]
-    names = _tum_names(result)
+    names = tum_names(result)
     poses = {"truth": first.truth, **{n: tr.poses for n, tr in first.tracks.items()}}
     return write_tum(out_dir, ((n, tum_text(first.times, poses[n], tum_header(result, n)))
                                for n in names))
@@ -226,7 +211,7 @@ def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
 def tum_links(result: CampaignResult) -> list[Link]:
     """The TUM files :func:`write_tum_files` writes, for the report's file list."""
     return [(f"{n}.tum", f"run 0's {'true' if n == 'truth' else n} trajectory (TUM: t x y z "
-             "qx qy qz qw)") for n in _tum_names(result)]
+             "qx qy qz qw)") for n in tum_names(result)]
 
 
 REPORT = KindReport("planar SLAM campaign", planar_sections, planar_figures, text_table,

@@ -4,12 +4,14 @@ filter run, and the odometry-only baseline."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from estimators import BlockLayout, Gaussian, make_filter, wrap_angle
 from estimators.linalg import Array
 from estimators.loop import run_epochs
-from estimators.models import Belief, Transition
+from estimators.models import Belief, Measurement, Transition
 from slam.kinds.planar.log import PlanarLog
 from slam.kinds.planar.models import (
     augmentation_model,
@@ -33,6 +35,50 @@ from slam.mapping.problem import SlamProblem, SlamResult, run_problem, world_bel
 
 #: Layout of the planar state: the pose ``[x, y, φ]``, then 2-D landmarks.
 PLANAR_LAYOUT = BlockLayout.of(state_space)
+
+
+@dataclass(frozen=True)
+class PlanarVariant:
+    """What a variant (``None``, ``"inv"``, ``"linv"`` or ``"fej"``;
+    :mod:`slam.kinds.planar.variants`) makes of a planar problem's standard-error models:
+    the group error's side, or the first-estimates bookkeeping of one run."""
+
+    side: str | None
+    fej: FirstEstimates | None
+
+    @classmethod
+    def of(cls, variant: str | None, x0: Array) -> PlanarVariant:
+        """The variant for a run starting at ``x0``."""
+        return cls(SIDES.get(variant or ""), FirstEstimates(x0) if variant == "fej" else None)
+
+    def motion_model(self, model: Transition) -> Transition:
+        """``model`` on the group error (an invariant variant), else as it is (the part a
+        problem may cache)."""
+        return model if self.side is None else invariant_motion(model, self.side)
+
+    def motion(self, model: Transition, b: Belief, u: Array) -> tuple[Transition, Array]:
+        """A step's transition from the cached :meth:`motion_model` (FEJ: its Jacobian at
+        the first estimates), with its input ``u``."""
+        if self.fej is not None:
+            return self.fej.motion(model, b.mean, u), u
+        return model, u
+
+    def observation(self, model: Measurement, slots: Array) -> Measurement:
+        """``model`` of the landmarks at ``slots`` as the variant sees it."""
+        if self.side is not None:
+            return invariant_observation(model, self.side)
+        return model if self.fej is None else self.fej.observation(model, slots)
+
+    def augment(self, model: Transition, n: int) -> Transition:
+        """``model`` appending landmarks to a state of ``n`` as the variant sees it."""
+        if self.side is not None:
+            return invariant_augment(model, self.side)
+        return model if self.fej is None else self.fej.augment(model, n)
+
+    @property
+    def layout(self) -> BlockLayout:
+        """The state's block layout (on the group for an invariant variant)."""
+        return PLANAR_LAYOUT if self.side is None else BlockLayout.of(group_space_of(self.side))
 
 
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
@@ -73,30 +119,19 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
     control_cov = noise_scale * log.control_cov
     obs_cov = noise_scale * log.obs_cov
     motions: dict[int, Transition] = {}
-    side = SIDES.get(variant or "")
-    fej = FirstEstimates(np.asarray(log.x0, dtype=float)) if variant == "fej" else None
+    v = PlanarVariant.of(variant, np.asarray(log.x0, dtype=float))
 
     def motion(k0: int, k1: int, b: Belief) -> tuple[Transition, Array]:
         n = k1 - k0
         if n not in motions:
-            m = motion_model(log.dt, log.wheelbase, control_cov, n)
-            motions[n] = m if side is None else invariant_motion(m, side)
-        u = log.controls[k0:k1]
-        if fej is not None:
-            return fej.motion(motions[n], b.mean, u), u
-        return motions[n], u
+            motions[n] = v.motion_model(motion_model(log.dt, log.wheelbase, control_cov, n))
+        return v.motion(motions[n], b, log.controls[k0:k1])
 
     def observe(slots: Array, index: Array):
-        m = observation_model(slots, obs_cov)
-        if side is not None:
-            return invariant_observation(m, side)
-        return m if fej is None else fej.observation(m, slots)
+        return v.observation(observation_model(slots, obs_cov), slots)
 
     def augment(n: int, z: Array, index: Array) -> Transition:
-        m = augmentation_model(n, z, obs_cov)
-        if side is not None:
-            return invariant_augment(m, side)
-        return m if fej is None else fej.augment(m, n)
+        return v.augment(augmentation_model(n, z, obs_cov), n)
 
     def nearest(b: Belief, z: Array, n_lm: int, gates: tuple[float, float]) -> int | None:
         return _nearest_neighbour(b, z, obs_cov, n_lm, gates)
@@ -105,8 +140,7 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
         x0=np.asarray(log.x0, dtype=float), P0=np.asarray(log.P0, dtype=float),
         steps=epochs_of(log, epoch_steps), motion=motion,
         observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
-        observe=observe, augment=augment,
-        layout=PLANAR_LAYOUT if side is None else BlockLayout.of(group_space_of(side)),
+        observe=observe, augment=augment, layout=v.layout,
         truth=log.truth, nearest=nearest, true_landmarks=log.landmarks)
 
 

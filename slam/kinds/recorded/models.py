@@ -8,19 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from estimators import BlockLayout, Euclidean, Measurement, Noise, Transition, wrap_angle
+from estimators import Euclidean, Measurement, Noise, Transition, wrap_angle
 from estimators.linalg import Array
 from slam.kinds.planar.models import state_space
-from slam.kinds.planar.slam import PLANAR_LAYOUT
-from slam.kinds.planar.variants import (
-    SIDES,
-    FirstEstimates,
-    group_space_of,
-    invariant_augment,
-    invariant_motion,
-    invariant_observation,
-    problem_for,
-)
+from slam.kinds.planar.slam import PlanarVariant
+from slam.kinds.planar.variants import problem_for
 from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS, OdometryLog
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem
 
@@ -200,37 +192,24 @@ def recorded_problem(log: OdometryLog, *, max_epoch_steps: int = DEFAULT_MAX_EPO
     ``variant`` as in :func:`slam.kinds.planar.slam.planar_problem`."""
     sq = np.linalg.cholesky(log.odometry_cov) if len(log.odometry_cov) else np.zeros((0, 3, 3))
     models: dict[bytes, Transition] = {}   # logs often repeat one covariance
-    side = SIDES.get(variant or "")
-    fej = FirstEstimates(np.zeros(3)) if variant == "fej" else None
+    v = PlanarVariant.of(variant, np.zeros(3))
 
     def motion(k0: int, k1: int, b: Any = None) -> tuple[Transition, Array]:
         key = sq[k0:k1].tobytes()
         if key not in models:
-            m = odometry_model(sq[k0:k1])
-            models[key] = m if side is None else invariant_motion(m, side)
-        u = log.odometry[k0:k1]
-        if fej is not None:
-            return fej.motion(models[key], b.mean, u), u
-        return models[key], u
+            models[key] = v.motion_model(odometry_model(sq[k0:k1]))
+        return v.motion(models[key], b, log.odometry[k0:k1])
 
     def observe(slots: Array, index: Array) -> Measurement:
-        m = point_observation_model(slots, log.obs_cov[index])
-        if side is not None:
-            return invariant_observation(m, side)
-        return m if fej is None else fej.observation(m, slots)
+        return v.observation(point_observation_model(slots, log.obs_cov[index]), slots)
 
     def augment(n: int, z: Array, index: Array) -> Transition:
-        m = point_augmentation_model(n, z, log.obs_cov[index])
-        if side is not None:
-            return invariant_augment(m, side)
-        return m if fej is None else fej.augment(m, n)
+        return v.augment(point_augmentation_model(n, z, log.obs_cov[index]), n)
 
     return SlamProblem(
         x0=np.zeros(3), P0=np.zeros((3, 3)), steps=recorded_epochs(log, max_epoch_steps),
         motion=motion, observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
-        observe=observe, augment=augment,
-        layout=PLANAR_LAYOUT if side is None else BlockLayout.of(group_space_of(side)),
-        truth=None, nearest=None)
+        observe=observe, augment=augment, layout=v.layout, truth=None, nearest=None)
 
 
 def run_recorded(log: OdometryLog, filter_name: str, *, mode: str = "local",

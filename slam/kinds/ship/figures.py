@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,17 +26,19 @@ from slam.kinds.ship.scoring import ARCMIN, AXES
 from slam.render.plotting import (
     ErrorGrid,
     ErrorPanel,
-    envelope,
+    envelope_and_run0,
     error_grid,
     estimator_colours,
+    estimator_lines,
     good_scores,
+    log_time_panels,
     nees_band_axes,
     plt,
     run0,
     run_average,
     save,
-    titled,
 )
+from slam.render.series import run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
 
 SETTLE_S = 30.0
@@ -79,11 +80,8 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
                      "attitude error (arcmin; transient before 30 s off the scale)")
 
     def panel(name: str, col: int) -> ErrorPanel:
-        s0 = first.scores.get(name)
-        env = envelope(good_scores(result, name), lambda s: s.err[:, col] / ARCMIN)
-        shown = None
-        if s0 is not None and not s0.diverged:
-            shown = (s0.err[:, col] / ARCMIN, s0.sigma[:, col] / ARCMIN)
+        env, shown = envelope_and_run0(result, name, lambda s: s.err[:, col] / ARCMIN,
+                                       lambda s: s.sigma[:, col] / ARCMIN)
         return _SettledPanel(env, shown, "" if shown else "diverged on run 0",
                              None if ref is None else ref.err[:, col] / ARCMIN,
                              _claim_bounds(result.summary, name, col), settled)
@@ -91,59 +89,30 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     error_grid(result, path, grid, panel, estimator_colours(_names(result)))
 
 
-def _median_abs(result: CampaignResult, name: str) -> Array | None:
-    scores = good_scores(result, name)
-    if not scores:
-        return None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return np.nanmedian(np.abs(np.stack([s.err for s in scores])), axis=0) / ARCMIN
-
-
 def _treatments(summary: dict[str, Any]) -> dict[str, str]:
     return {n: e.get("treatment", "") for group in ("filters", "variants")
             for n, e in (summary.get(group) or {}).items()}
 
 
-def _lines(result: CampaignResult, ax_per_col: Any, series: Callable[[str], Array | None],
-           cols: int) -> None:
-    """One line per estimator: solid with the pseudo-observation, dashed with the vector
-    measurement (``manifold``), thin purple for the smoother; coinciding estimators stay
-    visible because the first drawn is the widest."""
+def _lines(result: CampaignResult, axes: Any, series: Callable[[str], Array | None]) -> None:
+    """One line per estimator in each of ``axes``: solid with the pseudo-observation,
+    dashed with the vector measurement (``manifold``), thin purple for the smoother;
+    coinciding estimators stay visible because the first drawn is the widest."""
     names = _names(result)
-    colours = estimator_colours(names)
     treatments = _treatments(result.summary)
-    t = run0(result).times
-    for k, name in enumerate(names):
-        y = series(name)
-        if y is None:
-            continue
-        lw = 0.9 + 1.6 * (len(names) - 1 - k) / max(len(names) - 1, 1)
-        ls = "--" if treatments.get(name) == "manifold" else "-"
-        for col in range(cols):
-            ax_per_col[col].plot(t, y if y.ndim == 1 else y[:, col], color=colours[name],
-                                 lw=lw, ls=ls, label=name)
+    estimator_lines(axes, run0(result).times, names, estimator_colours(names), series,
+                    style=lambda n: "--" if treatments.get(n) == "manifold" else "-")
 
 
 def plot_convergence(result: CampaignResult, path: Path) -> None:
     """``convergence.png`` (module docstring)."""
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), sharey=True, layout="constrained")
-    _lines(result, axes, lambda n: _median_abs(result, n), 3)
+    _lines(result, axes, lambda n: run_statistic(
+        result, n, lambda e: np.nanmedian(np.abs(e), axis=0) / ARCMIN))
     bound = result.summary.get("converge_bound_arcmin")
-    for ax, axis in zip(axes, AXES):
-        ax.set_yscale("log")
-        if isinstance(bound, int | float):
-            ax.axhline(bound, color="0.3", ls=":", lw=1.0)
-        ax.set_title(f"{axis}: median |error| over runs", fontsize=10)
-        ax.set_xlabel("time (s)")
-        ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    axes[0].set_ylabel("arcmin")
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 5),
-               fontsize=8, frameon=False)
-    fig.suptitle(titled(result, "convergence (solid: Z = G q, dashed: B = C(q)ᵀR; "
-                                "dotted: the 10′ bound)"), fontsize=11)
-    save(fig, path)
+    log_time_panels(fig, axes, result, [f"{axis}: median |error| over runs" for axis in AXES],
+                    (bound,) * 3, "arcmin", "convergence (solid: Z = G q, dashed: B = C(q)ᵀR; "
+                    "dotted: the 10′ bound)", path, 5)
 
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
@@ -154,7 +123,7 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
         scores = good_scores(result, name)
         return run_average([s.nees6 for s in scores], 6.0) if scores else None
 
-    _lines(result, [ax], average, 1)
+    _lines(result, [ax], average)
     nees_band_axes(ax, result, 6, "attitude + drift NEES (6 dof) vs its 95 % band")
     save(fig, path)
 

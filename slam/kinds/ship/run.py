@@ -23,7 +23,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from estimators import Measurement, Transition, make_filter
 from estimators.loop import BeliefRecorder, run_epochs
@@ -41,9 +40,7 @@ from slam.kinds.ship.reference import smooth_ship
 from slam.kinds.ship.scoring import paired_mse, score, summarize_scores
 from slam.kinds.ship.simulate import ShipLog, simulate_ship
 from slam.kinds.ship.world import ShipWorld
-from slam.results import REFERENCE, EstimateSeries, RunOutcome
-
-Array = NDArray[np.float64]
+from slam.results import REFERENCE, Array, EstimateSeries, RunOutcome
 
 DESCRIPTIONS = {
     "paper": "pseudo-observation Z = G q (noise separation) + eigenvector (Lagrange) mean",

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.arrays import read_only
 from nav.euler import euler_zyx_to_q
 from nav.imu_errors import ImuErrors, corrupt_imu
 from nav.quaternion import qconj, qexp, qlog, qmul, qrotate
@@ -77,12 +78,6 @@ def field_direction(declination: float, inclination: float) -> Array:
     ci = math.cos(inclination)
     return np.array([ci * math.sin(declination), ci * math.cos(declination),
                      -math.sin(inclination)])
-
-
-def _ro(a: Array) -> Array:
-    a = np.ascontiguousarray(a)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,7 +159,7 @@ def simulate_ship(world: ShipWorld, rng: np.random.Generator) -> ShipLog:
     sigmas = np.array([v.gravity_sigma, v.magnetometer_sigma])
     body = qrotate(qconj(q[index])[:, None, :], refs[None, :, :])  # (M, 2, 3): C(q)ᵀ R_j
     vectors = body + sigmas[None, :, None] * rng.standard_normal((M, 2, 3))
-    return ShipLog(dt=dt, samples_per_update=s, times=_ro(times), gyro=_ro(gyro),
-                   truth_q=_ro(q), truth_bias=_ro(bias), update_index=_ro(index),
-                   vectors=_ro(vectors), refs=_ro(refs), sigmas=_ro(sigmas),
-                   earth_rate=_ro(wie), euler=_ro(euler))
+    return ShipLog(dt=dt, samples_per_update=s, times=read_only(times), gyro=read_only(gyro),
+                   truth_q=read_only(q), truth_bias=read_only(bias), update_index=read_only(index),
+                   vectors=read_only(vectors), refs=read_only(refs), sigmas=read_only(sigmas),
+                   earth_rate=read_only(wie), euler=read_only(euler))

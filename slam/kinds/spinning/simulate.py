@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nav.arrays import read_only
 from slam.kinds.spinning.noise import NoiseShape, unit_noise
 from slam.kinds.spinning.truth import Field, FlightSpec, attitude_at, body_field, trajectory
 
@@ -103,12 +104,6 @@ def sim_config(world: Any) -> SimConfig:
                      mag_sigma_nt=world.magnetometer.noise_nt, noise=world.truth_noise)
 
 
-def _ro(a: Array) -> Array:
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    a.setflags(write=False)
-    return a
-
-
 def epochs(cfg: SimConfig) -> Array:
     """The epochs from launch to the last one before impact."""
     flight = trajectory(cfg.flight)
@@ -137,5 +132,5 @@ def simulate(cfg: SimConfig, rng: np.random.Generator) -> SpinLog:
             "range_m": flight.range_m, "apex_m": flight.apex_m,
             "noise": ns.distribution, "magnetometer_factor": ns.magnetometer_factor,
             "gyro_factor": ns.gyro_factor}
-    return SpinLog(cfg.dt_s, _ro(t), _ro(tr.alpha), _ro(tr.beta), _ro(tr.gamma), _ro(gyro),
-                   _ro(gyro_roll), _ro(mag), _ro(b), meta)
+    arrays = (t, tr.alpha, tr.beta, tr.gamma, gyro, gyro_roll, mag, b)
+    return SpinLog(cfg.dt_s, *(read_only(a, np.float64) for a in arrays), meta)

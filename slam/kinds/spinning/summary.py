@@ -17,7 +17,6 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 import slam.kinds.spinning.sweep as sw
 from slam.kinds.spinning.run import (
@@ -30,10 +29,8 @@ from slam.kinds.spinning.simulate import epochs, sim_config
 from slam.kinds.spinning.truth import attitude_at, axis_field_angle, trajectory
 from slam.kinds.spinning.world import SpinningWorld
 from slam.render.tables import consistency_keys
-from slam.results import REFERENCE
+from slam.results import REFERENCE, Array
 from slam.scoring import anees_stats
-
-Array = NDArray[np.float64]
 
 DESCRIPTIONS = {
     "ekf": "extended Kalman filter (analytic Jacobian of eq. 6)",
