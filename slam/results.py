@@ -37,24 +37,52 @@ class Track:
     landmark_cov: Array
 
 
+@dataclass(frozen=True, kw_only=True)
+class EstimatorRun:
+    """What every estimator's result on one run carries besides its errors (the base of
+    the kinds' per-run scores; keyword-only, after each kind's own fields).
+
+    nis : per update (NaN where none) and nis_dof : the dof of each update (an array) or
+    of every update (an int); time_s : wall time; diverged : bool; failure : reason;
+    extra_time_s : time outside ``time_s`` (the smoother's marginals).
+    """
+
+    nis: Array
+    nis_dof: int | NDArray[np.int64]
+    time_s: float
+    diverged: bool = False
+    failure: str | None = None
+    extra_time_s: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class SlamRunScores(EstimatorRun):
+    """The :class:`EstimatorRun` fields and what the SLAM kinds' (planar, drone) scores
+    add to them: steps : filter epochs processed (predict + update cycles); per batch
+    update nis, nis_dof and nis_epoch : (U,) its epoch index (``None``: not recorded);
+    err_track : (E, 2) ``[along-track, cross-track]`` position error (m) in the frame of
+    the true direction of travel (cross-track positive to the left), sig_track : (E, 2)
+    own σ (both single precision: they only feed figures); map_series : the filter's map
+    per epoch (:class:`~slam.mapping.map_series.MapSeries`; ``None`` for estimators
+    without one).
+    """
+
+    steps: int
+    err_track: Array | None = None
+    sig_track: Array | None = None
+    nis_epoch: NDArray[np.int64] | None = None
+    map_series: Any = None
+
+
 @dataclass(frozen=True)
-class RunScores:
-    """One estimator on one run, reduced.
+class RunScores(SlamRunScores):
+    """One estimator on one run, reduced (and the :class:`SlamRunScores` fields).
 
     err : (E, 3) at the filter epochs: estimate minus truth ``[ex, ey, eφ]`` (m, m, rad; φ wrapped).
     sigma : (E, 3) the estimator's own standard deviations (NaN where none).
     nees : (E,) vehicle-pose NEES (3 dof), NaN where the covariance is singular
         or absent.
     lm_err : (L,) final landmark position errors (m).
-    nis, nis_dof : per batch update.
-    time_s : wall time; steps : filter epochs processed (predict + update cycles).
-    diverged : bool; failure : reason.
-    err_track : (E, 2) ``[along-track, cross-track]`` position error (m) in the true
-        heading's frame (cross-track positive to the left); sig_track : (E, 2) own σ
-        (both single precision: they only feed figures).
-    nis_epoch : (U,) the epoch index of each batch update (``None``: not recorded).
-    map_series : the filter's map per epoch
-        (:class:`~slam.mapping.map_series.MapSeries`; ``None`` for estimators without one).
     """
 
     name: str
@@ -62,16 +90,6 @@ class RunScores:
     sigma: Array
     nees: Array
     lm_err: Array
-    nis: Array
-    nis_dof: NDArray[np.int64]
-    time_s: float
-    steps: int
-    diverged: bool = False
-    failure: str | None = None
-    err_track: Array | None = None
-    sig_track: Array | None = None
-    nis_epoch: NDArray[np.int64] | None = None
-    map_series: Any = None
 
 
 @dataclass(frozen=True)

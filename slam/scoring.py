@@ -9,7 +9,8 @@ step (Bar-Shalom, Li & Kirubarajan 2001, §5.4); ``anees`` is its time average, 
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from scipy.special import gammaincinv
@@ -17,6 +18,19 @@ from scipy.special import gammaincinv
 from slam.results import Array
 
 COND_LIMIT = 1e12  # covariances more ill-conditioned than this get no NEES
+
+
+class Ended(Protocol):
+    """Per-run scores that say whether (and why) the run diverged."""
+
+    @property
+    def diverged(self) -> bool: ...
+
+    @property
+    def failure(self) -> str | None: ...
+
+
+S = TypeVar("S", bound=Ended)
 
 
 def nees_series(err: Array, cov: Array) -> Array:
@@ -85,6 +99,44 @@ def track_frame(err_xy: Array, cov_xy: Array, heading: Array) -> tuple[Array, Ar
     return err, sig
 
 
+def scored_runs(scores: Sequence[S]) -> tuple[list[S], dict[str, Any]]:
+    """The runs (an estimator's per-run scores) that did not diverge, and the first
+    entries of its summary: ``runs_scored``, ``diverged_runs`` and, if any diverged, the
+    sorted ``failures`` (every statistic leaves the diverged runs out)."""
+    good = [s for s in scores if not s.diverged]
+    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
+    if len(good) < len(scores):
+        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    return good, out
+
+
+def anees_entries(nees: Array, dof: int, key: str = "anees", *, full: bool = False
+                  ) -> dict[str, Any]:
+    """The summary entries of :func:`anees_stats` of ``nees`` (R, E) under ``key``: the
+    ANEES, ``key_bounds_95``, ``key_steps_inside_95`` and ``key_steps_above_95`` (none
+    when there is no NEES); ``full`` adds ``key_dof`` after the ANEES and
+    ``key_distance_to_band`` at the end."""
+    stats = anees_stats(nees, dof)
+    if not stats:
+        return {}
+    out: dict[str, Any] = {key: stats["value"]}
+    if full:
+        out[f"{key}_dof"] = dof
+    out.update({f"{key}_bounds_95": stats["band"], f"{key}_steps_inside_95": stats["inside"],
+                f"{key}_steps_above_95": stats["above"]})
+    if full:
+        out[f"{key}_distance_to_band"] = stats["distance"]
+    return out
+
+
+def timing(good: Sequence[Any], per: str = "cycle") -> dict[str, float]:
+    """``time_per_<per>_s``, the runs' wall time over their ``<per>s`` (the ``cycles`` or
+    ``steps`` attribute), and ``time_per_run_s``."""
+    count = sum(getattr(s, per + "s") for s in good)
+    return {f"time_per_{per}_s": float(sum(s.time_s for s in good) / max(count, 1)),
+            "time_per_run_s": float(np.mean([s.time_s for s in good]))}
+
+
 def nis_and_timing(good: list) -> dict:
     """``nis_mean`` (NIS per measurement dof over all updates), ``time_per_step_s`` and
     ``time_per_run_s`` of runs with ``nis``, ``nis_dof``, ``steps`` and ``time_s``."""
@@ -93,7 +145,5 @@ def nis_and_timing(good: list) -> dict:
     if nis.size:
         dof = np.concatenate([s.nis_dof for s in good])
         out["nis_mean"] = float(np.mean(nis / dof))
-    steps = sum(s.steps for s in good)
-    out["time_per_step_s"] = float(sum(s.time_s for s in good) / max(steps, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good, "step"))
     return out

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from nav.strapdown import EARTH_RATE, G0
 from slam.kinds.alignment.world import AlignmentWorld
-from slam.scoring import anees_stats
+from slam.scoring import anees_entries, scored_runs, timing
 
 Array = NDArray[np.float64]
 
@@ -125,12 +125,7 @@ def _consistency(good: list[AlignScores]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, attr, dof in (("anees", "nees", 3), ("anees_state", "nees13", 13),
                            ("anees_level", "nees_level", 2)):
-        stats = anees_stats(np.stack([getattr(s, attr) for s in good]), dof)
-        if stats:
-            out[key] = stats["value"]
-            out[f"{key}_bounds_95"] = stats["band"]
-            out[f"{key}_steps_inside_95"] = stats["inside"]
-            out[f"{key}_steps_above_95"] = stats["above"]
+        out.update(anees_entries(np.stack([getattr(s, attr) for s in good]), dof, key))
     nis = np.stack([s.nis for s in good])
     if np.isfinite(nis).any() and good[0].nis_dof:
         out["nis_mean"] = float(np.nanmean(nis) / good[0].nis_dof)
@@ -141,10 +136,7 @@ def summarize_scores(scores: list[AlignScores], times: Array, factor: float
                      ) -> dict[str, Any]:
     """Monte Carlo summary of one estimator (a ``summary.json`` entry); diverged runs are
     counted, with their reasons, and left out of every statistic."""
-    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
-    if bad:
-        out["failures"] = sorted({s.failure or "" for s in bad})
+    good, out = scored_runs(scores)
     if not good:
         return out
     notes = [s.note for s in good if s.note]
@@ -153,9 +145,7 @@ def summarize_scores(scores: list[AlignScores], times: Array, factor: float
         out["no_covariance_reasons"] = sorted(set(notes))
     out.update(error_stats(np.stack([s.err for s in good]), times, factor))
     out.update(_consistency(good))
-    cycles = sum(s.cycles for s in good)
-    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good))
     return out
 
 

@@ -69,8 +69,8 @@ from nav.quaternion import dcm_to_q
 from nav.spaces import UnitQuaternion
 from slam.failures import run_reference
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
-from slam.results import REFERENCE, EstimateSeries, RunOutcome
-from slam.scoring import anees_stats, nees_series, per_epoch_anees
+from slam.results import REFERENCE, EstimateSeries, EstimatorRun, RunOutcome
+from slam.scoring import anees_stats, nees_series, per_epoch_anees, scored_runs, timing
 
 Array = NDArray[np.float64]
 
@@ -246,15 +246,16 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
 # --------------------------------------------------------------------------- scoring
 
 @dataclass(frozen=True)
-class AttitudeScores:
+class AttitudeScores(EstimatorRun):
     """One estimator on one run, reduced (all at the star epochs, radians and rad/s).
 
     err_euler : (M, 3) estimate minus truth in the paper's Z-X-Y ``[roll, pitch, yaw]``
         (wrapped); sigma_euler : (M, 3) the estimator's own std of those angles.
     err_body : (M, 3) ``Log(q̂* ⊗ q)`` (body-frame attitude error); sigma_body (M, 3).
     err_bias : (M, 3) ``b - b̂``; sigma_bias (M, 3).
-    nees : (M,) 6-dof NEES of ``[err_body, err_bias]``; nis : (M,) per update, nis_dof.
-    time_s : wall time of ``cycles`` predict + update cycles (smoother: the solve).
+    nees : (M,) 6-dof NEES of ``[err_body, err_bias]``; cycles : predict + update cycles.
+    The :class:`~slam.results.EstimatorRun` fields: nis (M,) per update, nis_dof; time_s
+    of the ``cycles`` (smoother: the solve).
     """
 
     name: str
@@ -265,13 +266,7 @@ class AttitudeScores:
     err_bias: Array
     sigma_bias: Array
     nees: Array
-    nis: Array
-    nis_dof: int
-    time_s: float
     cycles: int
-    diverged: bool = False
-    failure: str | None = None
-    extra_time_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -313,8 +308,9 @@ def score_series(est: EstimateSeries, log: AttitudeLog, divergence_rad: float
         failure = (f"final attitude error {np.degrees(final):.3g} deg exceeds "
                    f"{np.degrees(divergence_rad):.3g} deg")
     return AttitudeScores(est.name, err_euler, sig_euler, err_body, diag[:, :3], err_bias,
-                          diag[:, 3:], nees, est.nis, est.nis_dof, est.time_s, est.cycles,
-                          diverged, failure, est.extra_time_s)
+                          diag[:, 3:], nees, est.cycles, nis=est.nis, nis_dof=est.nis_dof,
+                          time_s=est.time_s, diverged=diverged, failure=failure,
+                          extra_time_s=est.extra_time_s)
 
 
 # --------------------------------------------------------------------------- one run
@@ -373,10 +369,7 @@ def summarize_scores(scores: list[AttitudeScores], times: Array, steady_from: fl
 
     Diverged runs are counted and left out of every statistic.
     """
-    good = [s for s in scores if not s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
-    if len(good) < len(scores):
-        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    good, out = scored_runs(scores)
     if not good:
         return out
     steady = times >= steady_from
@@ -406,9 +399,7 @@ def summarize_scores(scores: list[AttitudeScores], times: Array, steady_from: fl
     nis = np.stack([s.nis for s in good])[:, steady]
     if np.isfinite(nis).any():
         out["nis_mean_steady"] = float(np.nanmean(nis) / good[0].nis_dof)
-    cycles = sum(s.cycles for s in good)
-    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good))
     if convergence:
         tc = np.array([convergence_time(np.linalg.norm(s.err_body, axis=1), times, ARCMIN)
                        for s in good])

@@ -15,7 +15,8 @@ from nav.euler import euler_error_jacobian, q_to_euler_zyx
 from slam.kinds.drone.filtering import DroneEstimate
 from slam.kinds.drone.models import QUAT, VEH_DIM
 from slam.kinds.drone.simulate import DroneLog
-from slam.scoring import anees_stats, nees_series, nis_and_timing, track_frame
+from slam.results import SlamRunScores
+from slam.scoring import anees_entries, nees_series, nis_and_timing, scored_runs, track_frame
 
 AXES = ("x", "y", "z")
 ATT_AXES = ("roll", "pitch", "yaw")
@@ -24,19 +25,19 @@ ATT_AXES = ("roll", "pitch", "yaw")
 # --------------------------------------------------------------------------- scoring
 
 @dataclass(frozen=True)
-class DroneScores:
-    """One estimator on one run, reduced (at the sensor epochs).
+class DroneScores(SlamRunScores):
+    """One estimator on one run, reduced (at the sensor epochs; and the
+    :class:`~slam.results.SlamRunScores` fields: nis, nis_dof, time_s of ``steps`` epochs).
 
     err_pos (E, 3) estimate minus truth (m), sig_pos (E, 3) own σ; err_vel (E, 3);
     err_att (E, 3) roll/pitch/yaw estimate minus truth (rad, wrapped), sig_att (E, 3);
     nees_pos (E,) 3-dof, nees_pose (E,) 6-dof (NaN at epoch 0, the prior); lm_ids (L,),
-    lm_err (L,) final 3-D landmark errors (m); nis, nis_dof; time_s of ``steps`` epochs.
+    lm_err (L,) final 3-D landmark errors (m).
 
     For the figures (single precision; NaN where the estimator gives none): sig_vel
     (E, 3) m/s; err_bias, sig_bias (E, 6) ``[b_g (rad/s), b_a (m/s²)]`` estimate minus
     truth and own σ; nees_att (E,) 3-dof body-frame attitude NEES; err_track, sig_track
-    (E, 2) horizontal ``[along-track, cross-track]`` error (m) in the frame of the true
-    horizontal velocity; nis_epoch (U,); map_series (filters).
+    horizontal, in the frame of the true horizontal velocity.
     """
 
     name: str
@@ -49,21 +50,10 @@ class DroneScores:
     nees_pose: Array
     lm_ids: Array
     lm_err: Array
-    nis: Array
-    nis_dof: Array
-    time_s: float
-    steps: int
-    diverged: bool = False
-    failure: str | None = None
-    extra_time_s: float = 0.0
     sig_vel: Array | None = None
     err_bias: Array | None = None
     sig_bias: Array | None = None
     nees_att: Array | None = None
-    err_track: Array | None = None
-    sig_track: Array | None = None
-    nis_epoch: Array | None = None
-    map_series: Any = None
 
 
 @dataclass(frozen=True)
@@ -107,8 +97,9 @@ def score(est: DroneEstimate, log: DroneLog) -> DroneScores:
     lm_err = np.linalg.norm(est.landmarks[known] - log.landmarks[est.landmark_ids[known]],
                             axis=1) if known.any() else np.zeros(0)
     return DroneScores(est.name, err_pos, sig_pos, err_vel, err_att, sig_att, nees_pos,
-                       nees_pose, est.landmark_ids[known], lm_err, est.nis, est.nis_dof,
-                       est.time_s, est.steps, est.diverged, est.failure, est.extra_time_s,
+                       nees_pose, est.landmark_ids[known], lm_err, nis=est.nis,
+                       nis_dof=est.nis_dof, time_s=est.time_s, steps=est.steps,
+                       diverged=est.diverged, failure=est.failure, extra_time_s=est.extra_time_s,
                        **_figure_series(est, log, err_pos, err_rot))
 
 
@@ -152,10 +143,7 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
 
     Diverged runs are counted and left out of every statistic.
     """
-    good = [s for s in scores if not s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
-    if len(good) < len(scores):
-        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    good, out = scored_runs(scores)
     if not good:
         return out
     ep = np.stack([s.err_pos for s in good])  # (R, E, 3)
@@ -180,20 +168,8 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
     if lm.size:
         out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))
         out["landmarks_mapped_mean"] = float(np.mean([len(s.lm_err) for s in good]))
-    pos = anees_stats(np.stack([s.nees_pos for s in good]), 3)
-    if pos:
-        out["anees"] = pos["value"]
-        out["anees_dof"] = 3
-        out["anees_bounds_95"] = pos["band"]
-        out["anees_steps_inside_95"] = pos["inside"]
-        out["anees_steps_above_95"] = pos["above"]
-        out["anees_distance_to_band"] = pos["distance"]
-    pose = anees_stats(np.stack([s.nees_pose for s in good]), 6)
-    if pose:
-        out["anees_pose6"] = pose["value"]
-        out["anees_pose6_bounds_95"] = pose["band"]
-        out["anees_pose6_steps_inside_95"] = pose["inside"]
-        out["anees_pose6_steps_above_95"] = pose["above"]
+    out.update(anees_entries(np.stack([s.nees_pos for s in good]), 3, full=True))
+    out.update(anees_entries(np.stack([s.nees_pose for s in good]), 6, "anees_pose6"))
     out.update(nis_and_timing(good))
     return out
 

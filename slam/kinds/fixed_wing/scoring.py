@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nav.spaces import UnitQuaternion
-from slam.scoring import anees_stats, nees_series
+from slam.scoring import anees_entries, nees_series, scored_runs, timing
 
 Array = NDArray[np.float64]
 DEG = math.pi / 180.0
@@ -112,11 +112,8 @@ def turn_split(good: list[FwScores]) -> dict[str, dict[str, float | None]]:
 
 
 def _consistency(good: list[FwScores]) -> dict[str, Any]:
-    stats = anees_stats(np.stack([s.nees for s in good]), good[0].nees_dof)
     out: dict[str, Any] = {"nees_dof": good[0].nees_dof}
-    if stats:
-        out.update(anees=stats["value"], anees_bounds_95=stats["band"],
-                   anees_steps_inside_95=stats["inside"], anees_steps_above_95=stats["above"])
+    out.update(anees_entries(np.stack([s.nees for s in good]), good[0].nees_dof))
     nis = np.concatenate([s.nis for s in good])
     if nis.size and good[0].nis_dof:
         out["nis_mean"] = float(np.mean(nis) / good[0].nis_dof)
@@ -126,10 +123,7 @@ def _consistency(good: list[FwScores]) -> dict[str, Any]:
 def summarize_scores(scores: list[FwScores]) -> dict[str, Any]:
     """Monte Carlo summary of one estimator; diverged runs are counted with their
     reasons and left out of every statistic."""
-    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
-    if bad:
-        out["failures"] = sorted({s.failure or "" for s in bad})
+    good, out = scored_runs(scores)
     if not good:
         return out
     att = np.stack([s.err_att for s in good]) / DEG
@@ -140,7 +134,5 @@ def summarize_scores(scores: list[FwScores]) -> dict[str, Any]:
         p = np.stack([s.err_pos for s in good])
         out["pos_rmse_m"] = _rms(np.linalg.norm(p, axis=-1))
     out.update(_consistency(good))
-    cycles = sum(s.cycles for s in good)
-    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good))
     return out

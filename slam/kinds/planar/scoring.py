@@ -9,7 +9,7 @@ import numpy as np
 
 from estimators import wrap_angle
 from slam.results import Array, RunScores
-from slam.scoring import anees_stats, nees_series, nis_and_timing, track_frame
+from slam.scoring import anees_entries, nees_series, nis_and_timing, scored_runs, track_frame
 
 
 def pose_errors(poses: Array, truth: Array) -> Array:
@@ -36,9 +36,11 @@ def reduce_run(name: str, poses: Array, pose_cov: Array, truth: Array, landmark_
     else:
         lm_err = np.zeros(0)
     return RunScores(name, err, sigma, nees_series(err, pose_cov), lm_err,
-                     np.asarray(nis, float), np.asarray(nis_dof, int), float(time_s),
-                     poses.shape[0] - 1, diverged, failure, err_track, sig_track,
-                     None if nis_epoch is None else np.asarray(nis_epoch, int), map_series)
+                     nis=np.asarray(nis, float), nis_dof=np.asarray(nis_dof, int),
+                     time_s=float(time_s), steps=poses.shape[0] - 1, diverged=diverged,
+                     failure=failure, err_track=err_track, sig_track=sig_track,
+                     nis_epoch=None if nis_epoch is None else np.asarray(nis_epoch, int),
+                     map_series=map_series)
 
 
 def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
@@ -46,10 +48,7 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
 
     Diverged runs are counted and left out of every error statistic.
     """
-    good = [s for s in scores if not s.diverged]
-    out: dict = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
-    if len(good) < len(scores):
-        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    good, out = scored_runs(scores)
     if not good:
         return out
     err = np.stack([s.err for s in good])  # (R, K + 1, 3)
@@ -64,12 +63,7 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
     lm = np.concatenate([s.lm_err for s in good])
     if lm.size:
         out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))
-    stats = anees_stats(np.stack([s.nees for s in good]), 3)  # (R, E)
-    if stats:
-        out["anees"] = stats["value"]
-        out["anees_bounds_95"] = stats["band"]
-        out["anees_steps_inside_95"] = stats["inside"]
-        out["anees_steps_above_95"] = stats["above"]
+    out.update(anees_entries(np.stack([s.nees for s in good]), 3))  # (R, E)
     out.update(nis_and_timing(good))
     return out
 

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 from nav.euler import euler_zyx_errors
 from nav.spaces import UnitQuaternion
 from slam.kinds.ship.simulate import ShipLog
-from slam.results import EstimateSeries
-from slam.scoring import anees_stats, nees_series
+from slam.results import EstimateSeries, EstimatorRun
+from slam.scoring import anees_stats, nees_series, scored_runs, timing
 
 Array = NDArray[np.float64]
 
@@ -35,13 +35,14 @@ _QUAT = UnitQuaternion()
 
 
 @dataclass(frozen=True)
-class ShipScores:
+class ShipScores(EstimatorRun):
     """One estimator on one run, reduced (radians, rad/s; at the vector epochs).
 
     err : (M, 3) roll/pitch/yaw error; sigma : (M, 3) own std of those angles;
     err_bias : (M, 3) ``α - α̂``; nees6, nees3 : (M,) NEES of ``[δθ, δα]`` and ``δθ``;
-    nis : (M,) per update with ``nis_dof``; time_s over ``cycles`` predict + update
-    cycles (the smoother: its solve).
+    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    nis (M,) per update with ``nis_dof``; time_s over the ``cycles`` (the smoother: its
+    solve).
     """
 
     name: str
@@ -51,12 +52,6 @@ class ShipScores:
     nees6: Array
     nees3: Array
     cycles: int
-    time_s: float
-    nis: Array
-    nis_dof: int
-    extra_time_s: float = 0.0
-    diverged: bool = False
-    failure: str | None = None
 
 
 
@@ -76,8 +71,9 @@ def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScore
     if not diverged and not final <= divergence_rad:
         diverged, failure = True, (f"final attitude error {math.degrees(final):.3g} deg exceeds "
                                    f"{math.degrees(divergence_rad):.3g} deg")
-    return ShipScores(est.name, err, sig, e6[:, 3:], nees6, nees3, est.cycles, est.time_s,
-                      est.nis, est.nis_dof, est.extra_time_s, diverged, failure)
+    return ShipScores(est.name, err, sig, e6[:, 3:], nees6, nees3, est.cycles, nis=est.nis,
+                      nis_dof=est.nis_dof, time_s=est.time_s, diverged=diverged,
+                      failure=failure, extra_time_s=est.extra_time_s)
 
 
 def settle_times(ok: Array, times: Array) -> Array:
@@ -142,10 +138,7 @@ def summarize_scores(scores: list[ShipScores], times: Array, steady_from: float,
                      bound: float) -> dict[str, Any]:
     """Monte Carlo summary of one estimator (a ``summary.json`` entry); diverged runs are
     counted, with their reasons, and left out of every statistic."""
-    good, bad = [s for s in scores if not s.diverged], [s for s in scores if s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(bad)}
-    if bad:
-        out["failures"] = sorted({s.failure or "" for s in bad})
+    good, out = scored_runs(scores)
     if not good:
         return out
     steady = times >= steady_from
@@ -154,9 +147,7 @@ def summarize_scores(scores: list[ShipScores], times: Array, steady_from: float,
     out["bias_rmse_deg_h"] = float(np.sqrt(np.nanmean(eb**2)) / DEG_H)
     out["bias_final_rmse_deg_h"] = float(np.sqrt(np.nanmean(eb[:, -1] ** 2)) / DEG_H)
     out.update(_consistency(good, steady))
-    cycles = sum(s.cycles for s in good)
-    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good))
     return out
 
 

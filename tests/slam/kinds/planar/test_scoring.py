@@ -47,9 +47,9 @@ def scores(nees: list[float], *, diverged: bool = False, err: float = 0.1,
            name: str = "f") -> RunScores:
     n = len(nees)
     return RunScores(name, np.tile([err, -err, 0.01], (n, 1)), np.full((n, 3), 0.1),
-                     np.array(nees, float), np.array([0.2, 0.4]), np.array([2.0, 4.0]),
-                     np.array([2, 2]), 0.25, n - 1, diverged,
-                     "blew up" if diverged else None)
+                     np.array(nees, float), np.array([0.2, 0.4]), nis=np.array([2.0, 4.0]),
+                     nis_dof=np.array([2, 2]), time_s=0.25, steps=n - 1, diverged=diverged,
+                     failure="blew up" if diverged else None)
 
 
 def test_summary_anees_and_the_fraction_of_epochs_inside_the_band():
