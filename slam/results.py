@@ -56,22 +56,29 @@ class EstimatorRun:
 
 
 @dataclass(frozen=True, kw_only=True)
-class SlamRunScores(EstimatorRun):
-    """The :class:`EstimatorRun` fields and what the SLAM kinds' (planar, drone) scores
-    add to them: steps : filter epochs processed (predict + update cycles); per batch
-    update nis, nis_dof and nis_epoch : (U,) its epoch index (``None``: not recorded);
-    err_track : (E, 2) ``[along-track, cross-track]`` position error (m) in the frame of
-    the true direction of travel (cross-track positive to the left), sig_track : (E, 2)
-    own σ (both single precision: they only feed figures); map_series : the filter's map
-    per epoch (:class:`~slam.mapping.map_series.MapSeries`; ``None`` for estimators
-    without one).
+class SlamRun(EstimatorRun):
+    """The :class:`EstimatorRun` fields of a SLAM kind's (planar, drone) estimator and
+    what it adds to them: steps : filter epochs processed (predict + update cycles); per
+    batch update nis, nis_dof and nis_epoch : (U,) its epoch index (``None``: not
+    recorded); map_series : the filter's map per epoch
+    (:class:`~slam.mapping.map_series.MapSeries`; ``None`` for estimators without one).
     """
 
     steps: int
-    err_track: Array | None = None
-    sig_track: Array | None = None
     nis_epoch: NDArray[np.int64] | None = None
     map_series: Any = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class SlamRunScores(SlamRun):
+    """The :class:`SlamRun` fields and what the SLAM kinds' scores add to them:
+    err_track : (E, 2) ``[along-track, cross-track]`` position error (m) in the frame of
+    the true direction of travel (cross-track positive to the left), sig_track : (E, 2)
+    own σ (both single precision: they only feed figures).
+    """
+
+    err_track: Array | None = None
+    sig_track: Array | None = None
 
 
 @dataclass(frozen=True)
@@ -118,21 +125,15 @@ class CampaignResult:
 
 
 @dataclass(frozen=True)
-class EstimateSeries:
+class EstimateSeries(EstimatorRun):
     """One attitude estimator's output at the update epochs (star sensor, vector
     observations): means : (M, 7) ``[q, b]``; covs : (M, 6, 6) tangent covariances (NaN
-    where none);
-    nis : (M,) per update (NaN for the smoother); time_s : wall time of the predict +
-    update cycles (filters) or of the solve (smoother); cycles : predict + update pairs.
+    where none); cycles : predict + update pairs.  The :class:`EstimatorRun` fields:
+    nis : (M,) per update (NaN for the smoother); time_s : wall time of the ``cycles``
+    (filters) or of the solve (smoother).
     """
 
     name: str
     means: Array
     covs: Array
-    nis: Array
-    nis_dof: int
-    time_s: float
     cycles: int
-    diverged: bool = False
-    failure: str | None = None
-    extra_time_s: float = 0.0

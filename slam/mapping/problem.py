@@ -40,6 +40,7 @@ from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from estimators.partitioned import BlockLayout
 from slam.mapping.map_series import MapRecorder, MapSeries, vehicle_variances
+from slam.results import EstimatorRun
 
 #: The filter modes (``[filters] mode`` in a world file, ``--mode`` on the command line).
 MODES: tuple[str, ...] = ("joint", "local")
@@ -48,8 +49,8 @@ MODES: tuple[str, ...] = ("joint", "local")
 
 
 @dataclass(frozen=True)
-class SlamResult:
-    """What one filter produced on one log.
+class SlamResult(EstimatorRun):
+    """What one filter produced on one log (an :class:`~slam.results.EstimatorRun`).
 
     Attributes
     ----------
@@ -76,11 +77,6 @@ class SlamResult:
     landmark_ids: Array
     landmarks: Array
     landmark_cov: Array
-    nis: Array
-    nis_dof: Array
-    time_s: float
-    diverged: bool
-    failure: str | None
     epochs_done: int = 0
     nis_epoch: Array | None = None
     vehicle_var: Array | None = None
@@ -268,10 +264,10 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     lm_cov = np.array([b.cov_block(problem.landmark_rows(s)) for s in range(n_lm)]
                       ).reshape(n_lm, nl, nl)
     ids = np.array(assoc.slot_ids[:n_lm], dtype=int)
-    return SlamResult(filter_name, steps, poses, covs, ids, lm,
-                      lm_cov, out.nis, out.nis_dof, max(out.time_s - maps.seconds, 0.0),
-                      out.diverged, out.failure, out.epochs_done, out.nis_epoch, var,
-                      maps.series())
+    return SlamResult(filter_name, steps, poses, covs, ids, lm, lm_cov, out.epochs_done,
+                      out.nis_epoch, var, maps.series(), nis=out.nis, nis_dof=out.nis_dof,
+                      time_s=max(out.time_s - maps.seconds, 0.0), diverged=out.diverged,
+                      failure=out.failure)
 
 
 def world_belief(b: Belief) -> Belief:

@@ -82,8 +82,9 @@ def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_do
         failure = (f"final level misalignment error {size:.3g} deg exceeds "
                    f"{np.degrees(world.scoring.divergence_rad):.3g} deg")
     return AlignScores(name, err, sigma, nees_series(err, cov), nees13,
-                       nees_series(err[:, :2], cov[:, :2, :2]), nis, nis_dof, time_s, cycles,
-                       failure is not None, failure, note)
+                       nees_series(err[:, :2], cov[:, :2, :2]), cycles, note, nis=nis,
+                       nis_dof=nis_dof, time_s=time_s, diverged=failure is not None,
+                       failure=failure)
 
 
 def run_reference(world: AlignmentWorld, log: AlignmentLog) -> AlignScores:

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from nav.strapdown import EARTH_RATE, G0
 from slam.kinds.alignment.world import AlignmentWorld
+from slam.results import EstimatorRun
 from slam.scoring import anees_entries, scored_runs, timing
 
 Array = NDArray[np.float64]
@@ -39,14 +40,14 @@ DEG_H = math.pi / 180.0 / 3600.0
 
 
 @dataclass(frozen=True)
-class AlignScores:
+class AlignScores(EstimatorRun):
     """One estimator on one run (radians, at the filter epochs; NaN where none).
 
     err, sigma : (M, 3) residual misalignment and own σ; nees : (M,) 3-dof; nees13 : (M,)
     whole error state; nees_level : (M,) 2-dof, the level axes (East, North) alone;
-    nis : (M,) with ``nis_dof``; time_s over ``cycles`` predict + update cycles (the
-    smoother: its solve); note: why the covariance is missing (the
-    smoother's marginals), if it is.
+    cycles : predict + update cycles; note: why the covariance is missing (the
+    smoother's marginals), if it is.  The :class:`~slam.results.EstimatorRun` fields:
+    nis : (M,) with ``nis_dof``; time_s over the ``cycles`` (the smoother: its solve).
     """
 
     name: str
@@ -55,12 +56,7 @@ class AlignScores:
     nees: Array
     nees13: Array
     nees_level: Array
-    nis: Array
-    nis_dof: int
-    time_s: float
     cycles: int
-    diverged: bool = False
-    failure: str | None = None
     note: str | None = None
 
 

@@ -162,8 +162,8 @@ def run_filter(log: AttitudeLog, name: str, x0: Array, P0: Array, transition: Tr
                      transition=lambda j, b: (transition, log.gyro_block(j - 1)),
                      correct=correct)
     nis[out.nis_epoch] = out.nis
-    return EstimateSeries(name, means, covs, nis, measurement.noise.dim, out.time_s, M - 1,
-                          out.diverged, out.failure)
+    return EstimateSeries(name, means, covs, M - 1, nis=nis, nis_dof=measurement.noise.dim,
+                          time_s=out.time_s, diverged=out.diverged, failure=out.failure)
 
 
 # --------------------------------------------------------------------------- smoothing
@@ -239,8 +239,8 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
             covs[j, :3, 3:] = jm.at(X[j], B[j])
             covs[j, 3:, :3] = jm.at(B[j], X[j])
             covs[j, 3:, 3:] = jm.at(B[j], B[j])
-    return EstimateSeries(REFERENCE, means, covs, np.full(M, np.nan), 0, solve_s, M - 1,
-                          extra_time_s=time.perf_counter() - t1)
+    return EstimateSeries(REFERENCE, means, covs, M - 1, nis=np.full(M, np.nan), nis_dof=0,
+                          time_s=solve_s, extra_time_s=time.perf_counter() - t1)
 
 
 # --------------------------------------------------------------------------- scoring
@@ -335,8 +335,9 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
         ref, failure = run_reference(smooth_attitude, log, x0, P0, fs.arw_rad_sqrt_s,
                                      fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
         M = log.n_star  # a smoother failure: no estimate, diverged with its reason
-        series.append(ref or EstimateSeries(REFERENCE, np.full((M, 7), np.nan), np.full(
-            (M, 6, 6), np.nan), np.full(M, np.nan), 0, 0.0, M - 1, True, failure))
+        series.append(ref or EstimateSeries(
+            REFERENCE, np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan), M - 1,
+            nis=np.full(M, np.nan), nis_dof=0, time_s=0.0, diverged=True, failure=failure))
     scores = {s.name: score_series(s, log, div) for s in series}
     tracks = {}
     if keep_tracks:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -38,6 +37,7 @@ from slam.kinds.drone.variants import (
 )
 from slam.mapping.association import gated_choice
 from slam.mapping.problem import SlamProblem, run_problem, variant_problem, world_belief
+from slam.results import SlamRun
 
 IMU_ONLY = "imu_only"
 DRONE_LAYOUT = BlockLayout.of(state_space)
@@ -46,16 +46,16 @@ DRONE_LAYOUT = BlockLayout.of(state_space)
 # --------------------------------------------------------------------------- filtering
 
 @dataclass(frozen=True)
-class DroneEstimate:
+class DroneEstimate(SlamRun):
     """One estimator's output at the sensor epochs.
 
     p, v (E, 3); q (E, 4); bias (E, 6) ``[b_g, b_a]``; pose_cov (E, 6, 6) of
     ``[δp (world frame), δθ (body frame)]`` (NaN where none); landmark_ids (L,) (``-1``
     for one created by nearest-neighbour association), landmarks (L, 3), landmark_cov
-    (L, 3, 3); nis, nis_dof per batch update; time_s wall time of ``steps`` epochs;
-    extra_time_s (the smoother's marginals); nis_epoch (U,) the epoch of each update,
-    vehicle_var (E, 15) the error state's variances, map_series the map per epoch (filters
-    only, :class:`~slam.mapping.map_series.MapSeries`).
+    (L, 3, 3); vehicle_var (E, 15) the error state's variances.  The
+    :class:`~slam.results.SlamRun` fields: nis, nis_dof per batch update; time_s wall time
+    of the ``steps`` epochs; extra_time_s (the smoother's marginals); nis_epoch (U,) the
+    epoch of each update; map_series the map per epoch (filters only).
     """
 
     name: str
@@ -67,16 +67,7 @@ class DroneEstimate:
     landmark_ids: Array
     landmarks: Array
     landmark_cov: Array
-    nis: Array
-    nis_dof: Array
-    time_s: float
-    steps: int
-    diverged: bool = False
-    failure: str | None = None
-    extra_time_s: float = 0.0
-    nis_epoch: Array | None = None
     vehicle_var: Array | None = None
-    map_series: Any = None
 
 
 def _nearest_neighbour(belief: Belief, z: Array, obs_cov: Array, n_lm: int,
@@ -162,10 +153,10 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
                     diverge_m=diverge_m, filter_params=filter_params)
     x = r.poses
     return DroneEstimate(filter_name, x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:16], r.pose_cov,
-                         r.landmark_ids, r.landmarks, r.landmark_cov, r.nis, r.nis_dof,
-                         r.time_s, max(r.epochs_done, 1), r.diverged, r.failure,
-                         nis_epoch=r.nis_epoch, vehicle_var=r.vehicle_var,
-                         map_series=r.map_series)
+                         r.landmark_ids, r.landmarks, r.landmark_cov, r.vehicle_var,
+                         nis=r.nis, nis_dof=r.nis_dof, time_s=r.time_s,
+                         steps=max(r.epochs_done, 1), diverged=r.diverged, failure=r.failure,
+                         nis_epoch=r.nis_epoch, map_series=r.map_series)
 
 
 def imu_only(log: DroneLog, imu_noise_scale: float = 1.0, chunk: int = 100) -> DroneEstimate:
@@ -196,7 +187,7 @@ def imu_only(log: DroneLog, imu_noise_scale: float = 1.0, chunk: int = 100) -> D
             pose_cov[c0 + i + 1] = cov[np.ix_(POSE_ROWS, POSE_ROWS)]
     p, v, q = P[0, steps], V[0, steps], Qt[0, steps]
     return DroneEstimate(IMU_ONLY, p, v, q, np.zeros((E, 6)), pose_cov, np.zeros(0, int),
-                         np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int),
-                         time.perf_counter() - t0, E - 1)
+                         np.zeros((0, 3)), np.zeros((0, 3, 3)), nis=np.zeros(0),
+                         nis_dof=np.zeros(0, int), time_s=time.perf_counter() - t0, steps=E - 1)
 
 

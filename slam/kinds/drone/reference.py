@@ -228,8 +228,8 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     else:
         pcov, lcov = np.full((E, 6, 6), np.nan), np.full((len(ids), 3, 3), np.nan)
     t_end = time.perf_counter()
-    return DroneEstimate(REFERENCE, p, v, q, bias, pcov, ids, lms, lcov, np.zeros(0),
-                         np.zeros(0, int), t_solved - t_start, E - 1,
+    return DroneEstimate(REFERENCE, p, v, q, bias, pcov, ids, lms, lcov, nis=np.zeros(0),
+                         nis_dof=np.zeros(0, int), time_s=t_solved - t_start, steps=E - 1,
                          extra_time_s=t_end - t_solved)
 
 
@@ -240,5 +240,5 @@ def failed_reference(log: DroneLog, failure: str) -> DroneEstimate:
     nan = np.full((E, 3), np.nan)
     return DroneEstimate(REFERENCE, nan, nan, np.full((E, 4), np.nan), np.full((E, 6), np.nan),
                          np.full((E, 6, 6), np.nan), np.zeros(0, int), np.zeros((0, 3)),
-                         np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0, int), 0.0, E - 1,
-                         diverged=True, failure=failure)
+                         np.zeros((0, 3, 3)), nis=np.zeros(0), nis_dof=np.zeros(0, int),
+                         time_s=0.0, steps=E - 1, diverged=True, failure=failure)

@@ -128,8 +128,8 @@ def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     nees = nees_series(-err, rec.covs[:, :3, :3])
     div, why = final_check(err, out.diverged, out.failure, w.scoring.divergence_rad)
     return FwScores(name, samples * log.dt, err, sig, None, None,
-                    *segment_masks(log.world, samples), nees, 3, out.nis, 3, out.time_s, J - 1,
-                    div, why)
+                    *segment_masks(log.world, samples), nees, 3, J - 1, nis=out.nis, nis_dof=3,
+                    time_s=out.time_s, diverged=div, failure=why)
 
 
 def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
@@ -170,7 +170,8 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
     nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
     div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)
     return FwScores(name, samples * log.dt, err, sig, ep, ev, *segment_masks(log.world, samples),
-                    nees, 9, nis, 6, time_s, cycles, div, why)
+                    nees, 9, cycles, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
+                    failure=why)
 
 
 def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nav.spaces import UnitQuaternion
+from slam.results import EstimatorRun
 from slam.scoring import anees_entries, nees_series, scored_runs, timing
 
 Array = NDArray[np.float64]
@@ -31,13 +32,13 @@ _QUAT = UnitQuaternion()
 
 
 @dataclass(frozen=True)
-class FwScores:
+class FwScores(EstimatorRun):
     """One estimator on one run, reduced (radians, m, m/s; at its epochs ``times``).
 
     err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
     turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
-    nis : per update (``nis_dof`` each); time_s over ``cycles`` predict + update cycles
-    (smoother: its solve).
+    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    nis per update (``nis_dof`` each); time_s over the ``cycles`` (smoother: its solve).
     """
 
     name: str
@@ -50,12 +51,7 @@ class FwScores:
     accel: Array
     nees: Array
     nees_dof: int
-    nis: Array
-    nis_dof: int
-    time_s: float
     cycles: int
-    diverged: bool = False
-    failure: str | None = None
 
 
 

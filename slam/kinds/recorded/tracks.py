@@ -19,8 +19,8 @@ def _posed(name: str, poses: np.ndarray, ids: np.ndarray, landmarks: np.ndarray,
            ) -> SlamResult:
     n = len(poses)
     return SlamResult(name, np.arange(n), poses, np.full((n, 3, 3), np.nan), ids, landmarks,
-                      np.full((len(ids), 2, 2), np.nan), np.zeros(0), np.zeros(0, int),
-                      time_s, False, None, n - 1)
+                      np.full((len(ids), 2, 2), np.nan), n - 1, nis=np.zeros(0),
+                      nis_dof=np.zeros(0, int), time_s=time_s)
 
 
 def log_tracks(log: OdometryLog, kept: dict[str, Any]) -> dict[str, SlamResult]:

@@ -109,5 +109,5 @@ def smooth_ship(log: ShipLog, x0: Array, P0: Array, arw: float, bias_rw: float,
     solve_s = time.perf_counter() - t0
     t1 = time.perf_counter()
     covs = _marginals(gtsam, graph, result, X, B) if marginals else np.full((M, 6, 6), np.nan)
-    return EstimateSeries(REFERENCE, means, covs, np.full(M, np.nan), 0, solve_s, M - 1,
-                          extra_time_s=time.perf_counter() - t1)
+    return EstimateSeries(REFERENCE, means, covs, M - 1, nis=np.full(M, np.nan), nis_dof=0,
+                          time_s=solve_s, extra_time_s=time.perf_counter() - t1)

@@ -93,8 +93,9 @@ def run_filter(log: ShipLog, name: str, treat: Treatment, x0: Array, P0: Array,
                      correct=correct, record=rec)
     nis = np.full(M, np.nan)
     nis[out.nis_epoch] = out.nis
-    return EstimateSeries(label(name, treat.name, main), rec.means, rec.covs, nis,
-                          dof[0] if dof else 0, out.time_s, M - 1, out.diverged, out.failure)
+    return EstimateSeries(label(name, treat.name, main), rec.means, rec.covs, M - 1, nis=nis,
+                          nis_dof=dof[0] if dof else 0, time_s=out.time_s,
+                          diverged=out.diverged, failure=out.failure)
 
 
 def estimators(world: ShipWorld, filters: Sequence[str]) -> list[tuple[str, str, bool]]:
@@ -126,8 +127,9 @@ def run_once(world: ShipWorld, run: int, seed_seq: np.random.SeedSequence,
         ref, failure = run_reference(smooth_ship, log, x0, P0, g.arw_rad_sqrt_s,
                                      g.bias_rw_rad_s_sqrt_s)
         M = log.n_updates  # a smoother failure: no estimate, diverged with its reason
-        series.append(ref or EstimateSeries(REFERENCE, np.full((M, 7), np.nan), np.full(
-            (M, 6, 6), np.nan), np.full(M, np.nan), 0, 0.0, M - 1, True, failure))
+        series.append(ref or EstimateSeries(
+            REFERENCE, np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan), M - 1,
+            nis=np.full(M, np.nan), nis_dof=0, time_s=0.0, diverged=True, failure=failure))
     scores = {s.name: score(s, log, world.scoring.divergence_rad) for s in series}
     if not keep_tracks:
         return RunOutcome(run, scores)
