@@ -267,14 +267,11 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
          mode: str | None, log_file: str | None, caught: dict[str, int]) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
-        from slam.registry import log_kind
-
-        _load_kind(log_kind(), caught)
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
-        _load_kind(kind, caught)
+    _load_kind(kind, caught)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:

@@ -10,7 +10,7 @@ import pytest
 
 from slam.campaign import run_campaign
 from slam.failures import reason, run_reference
-from slam.kinds.recorded.run import open_log
+from slam.kinds.recorded.world import open_log
 from slam.results import REFERENCE
 from tests.slam.kinds.recorded.synthetic import synthetic_log
 from tests.small_worlds import short_star_sensor_world, small_drone_world, small_world

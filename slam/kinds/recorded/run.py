@@ -14,54 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from slam.kinds.recorded.log import (
-    DEFAULT_FILTERS,
-    LogFormatError,
-    OdometryLog,
-    read_odometry_log,
-)
 from slam.kinds.recorded.scoring import run_log
 from slam.kinds.recorded.tracks import log_tracks
+from slam.kinds.recorded.world import KIND, RecordedWorld
 from slam.results import RunOutcome
 
-KIND = "recorded-log"
-MODES = ("local", "joint")
 _GROUPS = ("filters", "baselines", "reference")
-
-
-@dataclass(frozen=True)
-class RecordedFilters:
-    """The filters run on the log and their mode."""
-
-    names: tuple[str, ...]
-    mode: str
-
-
-@dataclass(frozen=True, eq=False)
-class RecordedWorld:
-    """A recorded log in the role of a world: one run, no truth (scored against the
-    smoother)."""
-
-    name: str
-    source: str
-    log: OdometryLog
-    filters: RecordedFilters
-    kind: str = KIND
-    runs: int = 1
-    seed: int = 0
-    description: str = "recorded planar SLAM log (GTSAM text format), scored against the smoother"
-
-
-def open_log(path: Path, filters: Sequence[str] | None = None, mode: str | None = None
-             ) -> RecordedWorld:
-    """Read ``path`` (raises :class:`~slam.kinds.recorded.log.LogFormatError`); a log of a
-    single pose (no odometry) has nothing to filter and is refused."""
-    log = read_odometry_log(path)
-    if log.n_poses < 2:
-        raise LogFormatError(str(path), None, "holds a single pose (no ODOMETRY record): "
-                             "nothing to filter or smooth")
-    return RecordedWorld(Path(path).stem, str(path), log,
-                         RecordedFilters(tuple(filters or DEFAULT_FILTERS), mode or MODES[0]))
 
 
 @dataclass(frozen=True)

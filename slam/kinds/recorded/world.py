@@ -1,0 +1,55 @@
+"""A recorded log in the role of a world (:class:`RecordedWorld`), opened by
+:func:`open_log` for ``slam run --log FILE``: the log's records and the filters to run on
+it, without the modules that run them (the command line reads a log before it loads
+them)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from slam.kinds.recorded.log import (
+    DEFAULT_FILTERS,
+    LogFormatError,
+    OdometryLog,
+    read_odometry_log,
+)
+
+KIND = "recorded-log"
+MODES = ("local", "joint")
+
+
+@dataclass(frozen=True)
+class RecordedFilters:
+    """The filters run on the log and their mode."""
+
+    names: tuple[str, ...]
+    mode: str
+
+
+@dataclass(frozen=True, eq=False)
+class RecordedWorld:
+    """A recorded log in the role of a world: one run, no truth (scored against the
+    smoother)."""
+
+    name: str
+    source: str
+    log: OdometryLog
+    filters: RecordedFilters
+    kind: str = KIND
+    runs: int = 1
+    seed: int = 0
+    description: str = "recorded planar SLAM log (GTSAM text format), scored against the smoother"
+
+
+def open_log(path: Path, filters: Sequence[str] | None = None, mode: str | None = None
+             ) -> RecordedWorld:
+    """Read ``path`` (raises :class:`~slam.kinds.recorded.log.LogFormatError`); a log of a
+    single pose (no odometry) has nothing to filter and is refused."""
+    log = read_odometry_log(path)
+    if log.n_poses < 2:
+        raise LogFormatError(str(path), None, "holds a single pose (no ODOMETRY record): "
+                             "nothing to filter or smooth")
+    return RecordedWorld(Path(path).stem, str(path), log,
+                         RecordedFilters(tuple(filters or DEFAULT_FILTERS), mode or MODES[0]))
