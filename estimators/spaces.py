@@ -77,8 +77,16 @@ def wrap_angle(a: Array | float) -> Array | float:
     if isinstance(a, float):
         w = (a + math.pi) % _TWO_PI - math.pi
         return w - _TWO_PI if w >= math.pi else w
-    out = (np.asarray(a, dtype=float) + np.pi) % _TWO_PI - np.pi
-    return np.where(out >= np.pi, out - _TWO_PI, out)
+    out = np.asarray(a, dtype=float) + np.pi
+    if out.ndim == 0:
+        out = out % _TWO_PI - np.pi
+        return np.where(out >= np.pi, out - _TWO_PI, out)
+    np.remainder(out, _TWO_PI, out=out)  # in place on the fresh sum: the same operations
+    out -= np.pi
+    high = out >= np.pi
+    if high.any():
+        out[high] -= _TWO_PI
+    return out
 
 
 class _Flat:

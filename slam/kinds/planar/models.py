@@ -42,8 +42,9 @@ def car_step(P: Array, V: Array, G: Array, dt: float, wheelbase: float) -> Array
     """One step of the car model for poses ``P`` (m, 3) and controls (m,) or scalars."""
     out = np.empty_like(P)
     vdt = V * dt
-    out[:, 0] = P[:, 0] + vdt * np.cos(G + P[:, 2])
-    out[:, 1] = P[:, 1] + vdt * np.sin(G + P[:, 2])
+    a = G + P[:, 2]
+    out[:, 0] = P[:, 0] + vdt * np.cos(a)
+    out[:, 1] = P[:, 1] + vdt * np.sin(a)
     out[:, 2] = wrap_angle(P[:, 2] + vdt * np.sin(G) / wheelbase)
     return out
 
