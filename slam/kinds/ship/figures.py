@@ -16,7 +16,6 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,18 +43,6 @@ from slam.results import REFERENCE, Array, CampaignResult
 SETTLE_S = 30.0
 
 
-@dataclass(frozen=True)
-class _SettledPanel(ErrorPanel):
-    """An :class:`ErrorPanel` whose y extent ignores the epochs before ``settled``."""
-
-    settled: Array | None = None
-
-    def extent(self) -> list[float]:
-        env = None if self.env is None else tuple(e[self.settled] for e in self.env)
-        out = [] if env is None else [float(np.nanmax(np.abs(env)))]
-        return out + ([] if self.paper is None else [abs(v) for v in self.paper])
-
-
 def _claim_bounds(summary: dict[str, Any], name: str, col: int) -> list[float] | None:
     claim = ((summary.get("paper") or {}).get("claims") or {}).get(name) or {}
     key = "yaw_within_arcmin" if col == 2 else "roll_pitch_within_arcmin"
@@ -74,7 +61,7 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     """``attitude_errors.png`` (module docstring)."""
     first = run0(result)
     ref = first.scores.get(REFERENCE)
-    settled = first.times >= min(SETTLE_S, first.times[-1])
+    settle = int(np.searchsorted(first.times, min(SETTLE_S, first.times[-1])))
     grid = ErrorGrid(AXES, 13.0, 1.3, "{name}: {axis} (′)",
                      ("error", "sigma", "envelope", "paper", "reference"),
                      "attitude error (arcmin; transient before 30 s off the scale)")
@@ -82,9 +69,9 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     def panel(name: str, col: int) -> ErrorPanel:
         env, shown = envelope_and_run0(result, name, lambda s: s.err[:, col] / ARCMIN,
                                        lambda s: s.sigma[:, col] / ARCMIN)
-        return _SettledPanel(env, shown, "" if shown else "diverged on run 0",
-                             None if ref is None else ref.err[:, col] / ARCMIN,
-                             _claim_bounds(result.summary, name, col), settled)
+        return ErrorPanel(env, shown, "" if shown else "diverged on run 0",
+                          None if ref is None else ref.err[:, col] / ARCMIN,
+                          _claim_bounds(result.summary, name, col), settle=settle)
 
     error_grid(result, path, grid, panel, estimator_colours(_names(result)))
 

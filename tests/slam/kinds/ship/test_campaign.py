@@ -65,8 +65,25 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
     assert "| (a) | ukf:additive |" in ship_tables(s)
 
 
-def test_the_report_figures_are_drawn(tmp_path) -> None:
+def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
+    """Every figure is written; the attitude panels' y range leaves out the transient
+    before 30 s (here the 8 s run's last epoch alone sets it)."""
+    import slam.kinds.ship.figures as figures
+
+    panels, real = [], figures.error_grid
+
+    def spy(result, path, grid, panel, colours):
+        panels.extend((panel(n, c), result) for n in figures._names(result) for c in range(3))
+        return real(result, path, grid, panel, colours)
+
+    monkeypatch.setattr(figures, "error_grid", spy)
     _, out, s = _run(tmp_path, "--filters", "hommukf,ekf")
     assert set(s["filters"]) == {"hommukf", "ekf"} and not s["variants"]
     for f in REPORT.figures():
         assert (out / f).stat().st_size > 10_000, f
+    assert len(panels) == 9  # hommukf, ekf and the smoother, three axes each
+    for p, result in panels:
+        times = result.outcomes[0].times
+        assert p.settle == len(times) - 1 and times[p.settle] == times[-1]
+        if p.env is not None:
+            assert p.extent()[0] == np.nanmax(np.abs(np.asarray(p.env)[:, -1:]))
