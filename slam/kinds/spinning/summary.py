@@ -28,9 +28,8 @@ from slam.kinds.spinning.run import (
 from slam.kinds.spinning.simulate import epochs, sim_config
 from slam.kinds.spinning.truth import attitude_at, axis_field_angle, trajectory
 from slam.kinds.spinning.world import SpinningWorld
-from slam.render.tables import consistency_keys
 from slam.results import REFERENCE, Array
-from slam.scoring import anees_stats
+from slam.scoring import anees_entries, scored_runs, timing
 
 DESCRIPTIONS = {
     "ekf": "extended Kalman filter (analytic Jacobian of eq. 6)",
@@ -87,26 +86,18 @@ def summarize_scores(scores: list[SpinScores], blind: Array, hinf: str | None = 
                      ) -> dict[str, Any]:
     """Monte Carlo summary of one estimator (module docstring); ``hinf`` is the world's
     ``on_failure`` for the H∞ filters (``None`` for the others)."""
-    good = [s for s in scores if not s.diverged]
-    out: dict[str, Any] = {"runs_scored": len(good), "diverged_runs": len(scores) - len(good)}
-    if len(good) < len(scores):
-        out["failures"] = sorted({s.failure or "" for s in scores if s.diverged})
+    good, out = scored_runs(scores)
     if hinf is not None:
         out.update(_fallbacks(scores, hinf))
     if not good:
         return out
     out.update(_errors(good))
     out.update(roll_stats(np.stack([s.roll_err for s in good]), blind))
-    stats = anees_stats(np.stack([s.nees for s in good]), 2)
-    if stats:  # the keys the shared consistency columns read
-        out.update(zip(consistency_keys(), (stats[k] for k in ("value", "band", "inside",
-                                                              "above"))))
+    out.update(anees_entries(np.stack([s.nees for s in good]), 2))
     nis = np.concatenate([s.nis for s in good])
     if np.isfinite(nis).any():
         out["nis_mean"] = float(np.nanmean(nis))
-    cycles = sum(s.cycles for s in good)
-    out["time_per_cycle_s"] = float(sum(s.time_s for s in good) / max(cycles, 1))
-    out["time_per_run_s"] = float(np.mean([s.time_s for s in good]))
+    out.update(timing(good, "cycle"))
     return out
 
 
