@@ -40,10 +40,13 @@ def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
     column ``lead``.  Dense: :math:`P' = P + E P_{l\cdot} + (E P_{l\cdot})^\top + E P_{ll}
     E^\top` (:math:`O(\mathrm{lead}\cdot d^2)`).  Factor: the rotation rows of a
     lower-triangular factor with the vehicle first are zero past that column, so only the
-    first ``lead`` columns change and one LQ of their leading square restores the triangle
-    (:math:`O(d)` arithmetic).  ``None``: :math:`T(TP)^\top`, and the space's own
+    first ``lead`` columns change, to :math:`S_{\cdot l} + E S_{ll}`, and one LQ of their
+    leading square restores the triangle (:math:`O(d)` arithmetic).  :math:`E` (d, lead)
+    is the space's ``transport_columns(x_old, x_new)`` when it has one, else :math:`T`
+    applied to those columns.  ``None``: :math:`T(TP)^\top`, and the space's own
     ``lower_factor`` re-triangularises :math:`TS`."""
     x_old, x_new = np.asarray(x_old, dtype=float), np.asarray(x_new, dtype=float)
+    columns = None if lead is None else getattr(space, "transport_columns", None)
 
     def T(A: Array) -> Array:
         return space.to_world(x_new, space.from_world(x_old, A))
@@ -53,8 +56,11 @@ def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
         if lead is None:
             return T(T(P).T)
         # T = I + E with E zero past column ``lead``: P' = P + EP_l + (EP_l)ᵀ + E P_ll Eᵀ
-        E = T(np.eye(P.shape[0], lead))
-        E[:lead] -= np.eye(lead)
+        if columns is not None:
+            E = columns(x_old, x_new)
+        else:
+            E = T(np.eye(P.shape[0], lead))
+            E[:lead] -= np.eye(lead)
         EP = E @ P[:lead]
         out = P + EP
         out += EP.T
@@ -63,7 +69,9 @@ def transport(space: Any, x_old: Array, x_new: Array, cov: Array | None = None,
     if lead is None:
         return space.lower_factor(T(np.asarray(sqrt, dtype=float)))
     S = np.array(sqrt, dtype=float, copy=True)
-    S[:, :lead] = lower_block(T(S[:, :lead]))
+    lead_cols = T(S[:, :lead]) if columns is None else \
+        S[:, :lead] + columns(x_old, x_new) @ S[:lead, :lead]
+    S[:, :lead] = lower_block(lead_cols)
     return S
 
 
@@ -81,7 +89,8 @@ class WorldChartGroup:
     """What a group space with ``to_world`` / ``from_world`` / ``retract`` gains for local
     mode: :meth:`retract_world` and :meth:`transport`.  The space says which leading tangent
     columns a right-error transport touches (``transport_lead``; ``None``: its own
-    ``lower_factor`` re-triangularises)."""
+    ``lower_factor`` re-triangularises) and may give :math:`T - I` on them in closed form
+    (``transport_columns(x_old, x_new)``, (d, lead); :func:`transport`)."""
 
     transport_lead: int | None
 

@@ -36,10 +36,12 @@ __all__ = [
     "omega_matrix",
     "qconj",
     "qexp",
+    "qleft_matrix",
     "qlog",
     "qmul",
     "qnormalize",
     "qpropagate",
+    "qright_matrix",
     "qrotate",
     "qto_dcm",
     "rotvec_to_dcm",
@@ -108,6 +110,20 @@ def qmul(p: ArrayLike, q: ArrayLike) -> Array:
     p, q = _f(p), _f(q)
     outer = p[..., :, None] * q[..., None, :]  # p_i q_j, then one (16, 4) matmul
     return outer.reshape(outer.shape[:-2] + (16,)) @ _PRODUCT_TABLE
+
+
+def qleft_matrix(a: Array) -> Array:
+    r"""The (4, 4) matrix of left multiplication by one quaternion ``a`` (4,):
+    :math:`a \otimes b = L(a)\,b`, so a batch ``b`` (m, 4) gives ``b @ L(a).T``."""
+    w, x, y, z = a.tolist()
+    return np.array([[w, -x, -y, -z], [x, w, -z, y], [y, z, w, -x], [z, -y, x, w]])
+
+
+def qright_matrix(a: Array) -> Array:
+    r"""The (4, 4) matrix of right multiplication by one quaternion ``a`` (4,):
+    :math:`b \otimes a = R(a)\,b`, so a batch ``b`` (m, 4) gives ``b @ R(a).T``."""
+    w, x, y, z = a.tolist()
+    return np.array([[w, -x, -y, -z], [x, w, z, -y], [y, -z, w, x], [z, y, -x, w]])
 
 
 def qconj(q: ArrayLike) -> Array:

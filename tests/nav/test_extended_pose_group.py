@@ -19,8 +19,9 @@ from nav.extended_pose_group import (
     MeanNotConvergedError,
     chain_jacobians,
     jl_apply,
+    so3_kit,
 )
-from nav.quaternion import qexp, skew
+from nav.quaternion import qexp, qleft_matrix, qmul, qright_matrix, skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import dcm_unit as qdcm
 
@@ -129,6 +130,27 @@ def test_left_jacobian_and_its_inverse_near_zero_and_pi():
             assert np.allclose(scipy.linalg.expm(A)[:3, 3], Ju[k], rtol=0, atol=1e-13)
 
 
+def test_so3_kit_is_the_exponential_its_left_jacobian_and_the_quaternion():
+    """Exp, J_l, J_l⁻¹ and the quaternion of :func:`so3_kit` (series below 0.1 rad, closed
+    forms above) against scipy's matrix exponential and :func:`qexp`, for a batch that
+    takes the series only, a mixed batch up to π, and one vector at a time."""
+    axis = np.array([1.0, 2.0, -0.5]) / math.sqrt(5.25)
+    angles = np.array([0.0, 1e-9, 1e-3, 0.0999, 0.1001, 2.0, math.pi - 1e-9, math.pi])
+    kinds = ("exp", "jl", "jl_inv")
+    for batch in (angles[:4], angles):
+        phi = batch[:, None] * axis
+        M, s = so3_kit(phi, kinds, ("qw", "qk"))
+        assert np.allclose(np.c_[s[:, :1], s[:, 1:] * phi], qexp(phi), rtol=0, atol=1e-15)
+        for i, p in enumerate(phi):
+            A = np.zeros((6, 6))                       # expm [[φx, I], [0, 0]] = [[R, J_l], ...]
+            A[:3, :3], A[:3, 3:] = skew(p), np.eye(3)
+            E = scipy.linalg.expm(A)
+            assert np.allclose(M[i, 0], E[:3, :3], rtol=0, atol=1e-14)
+            assert np.allclose(M[i, 1], E[:3, 3:], rtol=0, atol=1e-14)
+            assert np.allclose(M[i, 2] @ M[i, 1], np.eye(3), rtol=0, atol=1e-13)
+            assert np.allclose(so3_kit(p, kinds)[0], M[i], rtol=0, atol=1e-15)
+
+
 @pytest.mark.parametrize("side", SIDES)
 def test_mean_of_a_symmetric_cloud_is_its_centre(side):
     """Points x̄ ⊞ ±δⱼ (a cubature-like cloud, attitude spread ~0.5 rad) have the
@@ -153,6 +175,44 @@ def test_mean_is_the_barycentre_of_a_skewed_cloud(side):
     w /= w.sum()
     m = G.mean(pts, w)
     assert np.abs(w @ G.local(m, pts)).max() < 1e-12
+
+
+def test_local_right_after_mean_is_what_a_fresh_computation_gives():
+    """``local(mean(points), points)`` takes the cloud's attitude errors from the mean
+    (a memo keyed by the quaternions' values): bitwise the same as computing them anew,
+    and a cloud changed in place is not served from it."""
+    rng = np.random.default_rng(7)
+    G = ExtendedPoseGroup(N)
+    pts = G.retract(_state(rng), rng.normal(size=(10, DIM)) * 0.2)
+    w = np.full(10, 0.1)
+    m = G.mean(pts, w)
+    reused = G.local(m, pts)
+    G.mean(pts[::-1], w)                                       # another cloud: a fresh local
+    assert np.array_equal(G.local(m, pts), reused)
+    G.mean(pts, w)
+    pts[3, 6:10] = qmul(qexp([0.0, 0.0, 0.01]), pts[3, 6:10])  # changed after the mean
+    fresh = G.local(m, pts)
+    assert abs(fresh[3, 8] - reused[3, 8]) > 1e-3
+    G.mean(pts[::-1], w)
+    assert np.array_equal(G.local(m, pts), fresh)
+
+
+def test_transport_columns_are_the_transport_less_the_identity():
+    """T = M(y) M(x)⁻¹ moves the rotation columns alone: ``transport_columns`` is T - I on
+    the first ``transport_lead`` columns, and T is the identity past them."""
+    rng = np.random.default_rng(9)
+    G = ExtendedPoseGroup(N)
+    x, y = _state(rng), _state(rng)
+    E = G.to_world(y, G.from_world(x, np.eye(DIM))) - np.eye(DIM)
+    assert not np.any(E[:, :6]) and not np.any(E[:, G.transport_lead:])
+    assert np.allclose(G.transport_columns(x, y), E[:, :G.transport_lead], rtol=0, atol=1e-12)
+
+
+def test_quaternion_product_matrices():
+    rng = np.random.default_rng(8)
+    a, B = qexp(rng.normal(size=3)), qexp(rng.normal(size=(5, 3)))
+    assert np.allclose(B @ qleft_matrix(a).T, qmul(a, B), rtol=0, atol=1e-15)
+    assert np.allclose(B @ qright_matrix(a).T, qmul(B, a), rtol=0, atol=1e-15)
 
 
 def test_mean_that_does_not_converge_raises():

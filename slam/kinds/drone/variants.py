@@ -32,7 +32,7 @@ drone's standard chart to first order (``to_world``).
 from __future__ import annotations
 
 from dataclasses import replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -70,8 +70,10 @@ def split_variant(name: str) -> tuple[str, str | None]:
     return name, None
 
 
+@lru_cache(maxsize=128)
 def group_space(n_landmarks: int) -> ExtendedPoseGroup:
-    """The state space of a right-invariant drone problem with ``n_landmarks``."""
+    """The state space of a right-invariant drone problem with ``n_landmarks`` (an
+    immutable value, built once per size: every model and step asks for it)."""
     return ExtendedPoseGroup(n_landmarks, "right")
 
 
