@@ -4,6 +4,7 @@ association, consistency, failure reporting.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -43,20 +44,28 @@ HALF_LOOP = [[30.0, 0.0], [30.0, 30.0]]
 MC_RUNS = 12
 
 
+@functools.cache
+def _half_loop_run(seed: int):
+    """The half-loop log of ``seed``, its filter epochs and odometry's position errors at
+    them (the same for every filter: computed once per seed)."""
+    log = simulate_planar(small_world(waypoints=HALF_LOOP), np.random.default_rng(seed))
+    steps = epochs_of(log, 8)
+    odo, _, failure = dead_reckoning(log, steps)
+    assert failure is None
+    return log, steps, np.hypot(*(odo[:, :2] - log.truth[steps, :2]).T)
+
+
 def monte_carlo(name: str, runs: int = MC_RUNS, noise_scale: float = 1.0):
     """``runs`` seeded runs (seeds 0, 1, ...) of filter ``name`` on the half loop: per run
     the result, the position errors, the NEES series and odometry's position errors."""
-    world = small_world(waypoints=HALF_LOOP)
     out = []
     for seed in range(runs):
-        log = simulate_planar(world, np.random.default_rng(seed))
+        log, steps, odo_err = _half_loop_run(seed)
         r = run_slam(log, name, noise_scale=noise_scale)
         assert not r.diverged, r.failure
+        assert np.array_equal(r.steps, steps)
         e = pose_errors(r.poses, log.truth[r.steps])
-        odo, _, failure = dead_reckoning(log, r.steps)
-        assert failure is None
-        out.append((r, np.hypot(e[:, 0], e[:, 1]), nees_series(e, r.pose_cov),
-                    np.hypot(*(odo[:, :2] - log.truth[r.steps, :2]).T)))
+        out.append((r, np.hypot(e[:, 0], e[:, 1]), nees_series(e, r.pose_cov), odo_err))
     return out
 
 
