@@ -183,9 +183,14 @@ def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array, str | No
     def record(e: int, b: Belief) -> None:
         poses[e], covs[e] = b.mean, b.cov
 
+    motions: dict[int, Transition] = {}  # one model per epoch length, as the filters keep
+
     def transition(e: int, b: Belief) -> tuple[Transition, Array]:
         k0, k1 = int(steps[e - 1]), int(steps[e])
-        return motion_model(log.dt, log.wheelbase, log.control_cov, k1 - k0), log.controls[k0:k1]
+        n = k1 - k0
+        if n not in motions:
+            motions[n] = motion_model(log.dt, log.wheelbase, log.control_cov, n)
+        return motions[n], log.controls[k0:k1]
 
     b0 = Gaussian(np.asarray(log.x0, dtype=float), np.asarray(log.P0, dtype=float),
                   state_space(0))
