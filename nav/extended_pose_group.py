@@ -171,16 +171,6 @@ def jl_apply(phi: Array, u: Array, inverse: bool = False) -> Array:
     return np.matmul(u, _T(jl_matrix(phi, inverse)))
 
 
-def _dcm(q: Array) -> Array:
-    """:func:`~nav.strapdown.dcm_unit` of one unit quaternion, in scalar arithmetic."""
-    w, x, y, z = q.tolist()
-    xx, yy, zz, xy, xz, yz = x * x, y * y, z * z, x * y, x * z, y * z
-    wx, wy, wz = w * x, w * y, w * z
-    return np.array([[1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
-                     [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
-                     [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)]])
-
-
 def _qprod(p: Array, q: Array) -> Array:
     """:func:`~nav.quaternion.qmul` ``p ⊗ q``, as one matrix product when ``p`` or ``q``
     is a single quaternion (the other a batch)."""
@@ -201,6 +191,7 @@ def _rotate(u: Array, R: Array) -> Array:
     return (R.reshape(3 * m, 3) @ u.T).reshape(m, 3, -1).transpose(0, 2, 1)
 
 # --------------------------------------------------------------------------- the space
+
 
 @dataclass(frozen=True)
 class ExtendedPoseGroup(WorldChartGroup):
@@ -354,7 +345,7 @@ class ExtendedPoseGroup(WorldChartGroup):
             rhs = _sum_products(u, _T(J))
         else:
             J = jl_matrix(qlog(_qprod(qconj(qbar), pts[:, 6:10])), inverse=True) * w[:, None, None]
-            Rbar = _dcm(qbar)
+            Rbar = qdcm(qbar)
             A, rhs = J.sum(axis=0), _sum_products(u @ Rbar, _T(J))
         _require_regular(A)
         ubar = np.linalg.solve(A, rhs.T).T
@@ -383,7 +374,7 @@ class ExtendedPoseGroup(WorldChartGroup):
 
     def _apply(self, x: Array, A: Array, inverse: bool) -> Array:
         x, A = np.asarray(x, dtype=float), np.asarray(A, dtype=float)
-        R, s = _dcm(x[6:10]), 9 + self.n_bias
+        R, s = qdcm(x[6:10]), 9 + self.n_bias
         out = A.copy()
         if self.side == "right":   # rows u: ∓[u]x ξ_θ, ξ_θ the rotation rows of A or out
             th = R @ A[6:9] if inverse else R.T @ A[6:9]
@@ -405,7 +396,7 @@ class ExtendedPoseGroup(WorldChartGroup):
         chart carried to the group's error (right: column block θ becomes
         :math:`B_θ R^\top - \sum_u B_u [u]_\times`)."""
         x, B = np.asarray(x, dtype=float), np.asarray(B, dtype=float)
-        R = _dcm(x[6:10])
+        R = qdcm(x[6:10])
         out = B.copy()
         if self.side == "right":
             s, S = 9 + self.n_bias, self._skews(x)
@@ -428,9 +419,9 @@ class ExtendedPoseGroup(WorldChartGroup):
         :math:`T = M(x_{new}) M(x_{old})^{-1}`: only the rotation columns move, by
         :math:`R_{new}^\top R_{old} - I` in the rotation rows and by
         :math:`[u_{old} - u_{new}]_\times R_{old}` in each vector's rows."""
-        Ro, s = _dcm(x_old[6:10]), 9 + self.n_bias
+        Ro, s = qdcm(x_old[6:10]), 9 + self.n_bias
         E = np.zeros((self.dim, self.transport_lead))
-        E[6:9, 6:9] = _dcm(x_new[6:10]).T @ Ro - np.eye(3)
+        E[6:9, 6:9] = qdcm(x_new[6:10]).T @ Ro - np.eye(3)
         C = self._skews(np.asarray(x_old) - x_new) @ Ro
         E[:6, 6:9], E[s:, 6:9] = C[:6], C[6:]
         return E

@@ -170,10 +170,16 @@ def _qexp(phi: Array) -> Array:
 
 
 def dcm_unit(q: Array) -> Array:
-    """``C(q)`` of unit quaternions, (..., 3, 3) (no normalisation; fast component form)."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    """``C(q)`` of unit quaternions, (..., 3, 3) (no normalisation; fast component form;
+    one quaternion in scalar arithmetic, the same operations)."""
+    one = q.ndim == 1
+    w, x, y, z = q.tolist() if one else (q[..., 0], q[..., 1], q[..., 2], q[..., 3])
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    if one:
+        return np.array([[1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
+                         [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
+                         [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)]])
     C = np.empty(q.shape[:-1] + (3, 3))
     C[..., 0, 0] = 1.0 - 2.0 * (yy + zz)
     C[..., 0, 1] = 2.0 * (xy - wz)
