@@ -38,6 +38,8 @@ from estimators.linalg import Array
 from estimators.models import Belief, Innovation, Transition
 
 FAILURES: tuple[type[BaseException], ...] = (np.linalg.LinAlgError, ArithmeticError)
+"""Exceptions that end a run as a divergence (``FloatingPointError`` and
+:class:`Divergence` are ``ArithmeticError``\\ s)."""
 
 _epoch_hook: Callable[[], None] | None = None
 
@@ -59,13 +61,12 @@ class BeliefRecorder:
         self.means[e] = belief.mean
         self.covs[e] = belief.cov
 
+
 def set_epoch_hook(hook: Callable[[], None] | None) -> None:
     """Call ``hook()`` after every epoch of every :func:`run_epochs` in this process
     (progress reporting only: it sees nothing and changes nothing); ``None`` removes it."""
     global _epoch_hook
     _epoch_hook = hook
-"""Exceptions that end a run as a divergence (``FloatingPointError`` and
-:class:`Divergence` are ``ArithmeticError``\\ s)."""
 
 
 class Divergence(ArithmeticError):

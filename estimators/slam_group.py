@@ -237,7 +237,6 @@ class SlamGroup(WorldChartGroup):
             out[:, iy] = c * B[:, iy] - s * B[:, ix]
         return out
 
-
     @property
     def transport_lead(self) -> int | None:
         r"""Right error: :math:`T = I + Δa\,e_φ^\top` adds multiples of the heading row to

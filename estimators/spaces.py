@@ -68,6 +68,7 @@ class MeanNotConvergedError(ArithmeticError):
     """A group space's sigma-point mean is undefined (a cloud spread over about a half turn)
     or its iteration did not converge."""
 
+
 def wrap_angle(a: Array | float) -> Array | float:
     """Wrap angles to ``[-π, π)`` (a float ``%`` that rounds up to π is mapped to -π).
 

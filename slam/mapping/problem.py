@@ -205,6 +205,7 @@ def variant_problem(make: Callable[[str | None], SlamProblem], filter_name: str,
         raise ValueError(f"{filter_name} has no local mode (local: {', '.join(local_names)})")
     return replace(make(None), group=group)
 
+
 def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
                 association: str = "known", gates: tuple[float, float] = (4.0, 25.0),
                 diverge_m: float = 50.0, filter_params: dict | None = None) -> SlamResult:

@@ -90,7 +90,6 @@ def covariance_ellipse(mean: Array, cov: Array, n_sigma: float = 2.0, **kw) -> E
                    angle=angle, **kw)
 
 
-
 def envelope(scores: list, values: Callable) -> tuple[Array, Array] | None:
     """Monte Carlo envelope (per-epoch min and max over runs) of ``values(score)``."""
     if not scores:

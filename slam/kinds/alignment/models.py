@@ -160,7 +160,6 @@ class _AqeMap:
         dV1 = dV @ self.F.T + self.a[j] + rot
         return np.hstack([log.sins_q[j + 1] - Q1, dV1, eps, nab])
 
-
     def jacobian(self, x: Array, j: int) -> Array:
         r""":math:`\partial f/\partial x` (13, 13) at ``x`` for the EKF: :math:`\delta Q`
         enters linearly (:math:`L(E)\,R(\Delta R\,\mathrm{Exp}(-A\varepsilon))`), the drift

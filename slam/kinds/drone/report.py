@@ -153,6 +153,7 @@ HOW_TO_READ = (
     "3-D bearing-range factors) on the very same measurements."
 )
 
+
 def _flight_note(summary: dict[str, Any]) -> str:
     f = summary.get("flight") or {}
     if not f:

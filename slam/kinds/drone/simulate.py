@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 
 # --------------------------------------------------------------------------- the log
 
+
 @dataclass(frozen=True)
 class DroneLog:
     """Everything the estimators see, plus the truth at the sensor epochs.

@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # nav.terrain imports trimesh, which swallows Ctrl-C in its i
 
 # --------------------------------------------------------------------------- truth
 
+
 @lru_cache(maxsize=8)
 def build_terrain(spec: Any, bounds: tuple[float, float, float, float]) -> Terrain:
     """The world's ground mesh (a :class:`slam.kinds.drone.world.TerrainSpec` and the map bounds).

@@ -54,7 +54,6 @@ class FwScores(EstimatorRun):
     cycles: int
 
 
-
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:
     """NEES of the tangent error ``truth ⊟ estimate`` = ``[-δp, -δv, Log(q̂* ⊗ q)]``
     (9 dof; ``p_err``, ``v_err`` are estimate minus truth)."""

@@ -18,6 +18,7 @@ from slam.mapping.problem import SlamProblem, SlamResult, run_problem
 
 # --------------------------------------------------------------------------- filter models
 
+
 def pose2_exp(w: Array) -> Array:
     r"""``Pose2.Expmap`` of rows ``[v_x, v_y, ω]`` -> ``[x, y, θ]`` (vectorised)."""
     th = w[:, 2]

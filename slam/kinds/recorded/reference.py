@@ -15,6 +15,7 @@ from slam.kinds.recorded.log import PRIOR_SIGMA, OdometryLog
 
 # --------------------------------------------------------------------------- the smoother
 
+
 @dataclass(frozen=True)
 class RecordedReference:
     """The smoother's estimate of a recorded log.

@@ -18,6 +18,7 @@ from slam.mapping.problem import SlamResult
 
 # --------------------------------------------------------------------------- scoring
 
+
 def score_filter(result: SlamResult, ref: RecordedReference | None) -> dict[str, Any]:
     """One filter against the smoother (keys that do not apply are left out; only the
     filter's own keys when the smoother failed, ``ref = None``)."""

@@ -54,7 +54,6 @@ class ShipScores(EstimatorRun):
     cycles: int
 
 
-
 def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScores:
     """Reduce an estimator's series to :class:`ShipScores` against the log's truth."""
     q_true, b_true = log.update_truth_q, log.update_truth_bias
