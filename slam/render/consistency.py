@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from matplotlib.ticker import LogLocator, MaxNLocator
 
+from slam.render import plotting
 from slam.render.figures import (
     PANEL_WIDTH,
     Colours,
@@ -24,15 +25,7 @@ from slam.render.figures import (
     draw_band,
     filters_and_reference,
 )
-from slam.render.plotting import (
-    filter_names,
-    inch_layout,
-    plt,
-    readable_log_axis,
-    run0,
-    save,
-    titled,
-)
+from slam.render.plotting import plt
 from slam.render.series import (
     EpochConsistency,
     nees_per_epoch,
@@ -64,15 +57,15 @@ def consistency_figure(specs: Sequence[NeesSpec], *, nis: bool = True,
 
     def draw(result: CampaignResult, path) -> None:
         names, col = estimators(result), colours(result)
-        t = run0(result).times
-        nis_rows = ({n: nis_per_epoch(result, n) for n in filter_names(result)} if nis
+        t = plotting.run0(result).times
+        nis_rows = ({n: nis_per_epoch(result, n) for n in plotting.filter_names(result)} if nis
                     else {})
         nis_rows = {n: c for n, c in nis_rows.items() if c is not None}
         n_rows = len(specs) + bool(nis_rows)
         fig = plt.figure(figsize=(PANEL_WIDTH, 1.0 + 3.3 * n_rows))
         grid = fig.add_gridspec(n_rows, 2, width_ratios=(3.0, 1.0))
-        inch_layout(fig, n_rows, 2, grid=grid, top=0.8, bottom=1.05, hgap=1.35, wgap=1.1,
-                    right=0.3)
+        plotting.inch_layout(fig, n_rows, 2, grid=grid, top=0.8, bottom=1.05, hgap=1.35, wgap=1.1,
+                             right=0.3)
         for i, spec in enumerate(specs):
             series = {n: nees_per_epoch(result, n, spec.nees, spec.dof) for n in names}
             per_run = {n: per_run_anees(result, n, spec.nees, spec.dof) for n in names}
@@ -81,8 +74,8 @@ def consistency_figure(specs: Sequence[NeesSpec], *, nis: bool = True,
             per_run = {n: per_run_nis(result, n) for n in nis_rows}
             _row(fig, grid, len(specs), t, nis_rows, per_run, col, "NIS / dof",
                  "mean NIS/dof")
-        fig.suptitle(titled(result, title), fontsize=11)
-        save(fig, path)
+        fig.suptitle(plotting.titled(result, title), fontsize=11)
+        plotting.save(fig, path)
 
     return draw
 
@@ -109,7 +102,7 @@ def _row(fig, grid, i: int, t: np.ndarray, series: dict[str, EpochConsistency | 
         ax.axhline(1.0, color="0.5", lw=0.6)
         ax.set_yscale("log")
         _robust_limits(ax, np.concatenate(shown), band)
-        readable_log_axis(ax)
+        plotting.readable_log_axis(ax)
         ax.legend(fontsize=8, frameon=False, loc="upper left", ncols=2,
                   bbox_to_anchor=(0.0, 0.0, 1.0, 0.0), bbox_transform=_below(ax))
     ax.set_ylabel(f"{label} (run average)", fontsize=9)
@@ -155,7 +148,7 @@ def _histogram(ax, per_run: dict[str, np.ndarray], col: dict[str, str], xlabel: 
     ax.axvline(1.0, color="black", ls="--", lw=1.0)
     if wide:  # a narrow panel: 1-2-5 ticks
         ax.set_xscale("log")
-        readable_log_axis(ax, "x")
+        plotting.readable_log_axis(ax, "x")
         ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel(xlabel, fontsize=9)

@@ -21,21 +21,8 @@ from typing import Any
 import numpy as np
 
 from slam.kinds.alignment.scoring import ARCMIN, AXES
-from slam.render.plotting import (
-    ErrorGrid,
-    ErrorPanel,
-    envelope_and_run0,
-    error_grid,
-    estimator_colours,
-    estimator_lines,
-    good_scores,
-    log_time_panels,
-    nees_band_axes,
-    plt,
-    run0,
-    run_average,
-    save,
-)
+from slam.render import plotting
+from slam.render.plotting import plt
 from slam.render.series import run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
 
@@ -62,29 +49,31 @@ def _paper(summary: dict[str, Any], name: str, col: int) -> list[float] | None:
 
 def plot_errors(result: CampaignResult, path: Path) -> None:
     """``misalignment_errors.png`` (module docstring)."""
-    first = run0(result)
+    first = plotting.run0(result)
     t = first.times
     ref = first.scores.get(REFERENCE)
     settle = int(np.searchsorted(t, min(SETTLE_S, t[-1] / 2)))
-    grid = ErrorGrid(AXES, 13.0, 1.3, "{name}: {axis} (′)",
-                     ("error", "sigma", "envelope", "paper", "reference"),
-                     "misalignment error (arcmin; East/North range set after 10 s)",
-                     groups=((0, 1),))
+    grid = plotting.ErrorGrid(AXES, 13.0, 1.3, "{name}: {axis} (′)",
+                              ("error", "sigma", "envelope", "paper", "reference"),
+                              "misalignment error (arcmin; East/North range set after 10 s)",
+                              groups=((0, 1),))
 
-    def panel(name: str, col: int) -> ErrorPanel:
-        env, shown = envelope_and_run0(result, name, lambda s: s.err[:, col] / ARCMIN,
-                                       lambda s: s.sigma[:, col] / ARCMIN)
+    def panel(name: str, col: int) -> plotting.ErrorPanel:
+        env, shown = plotting.envelope_and_run0(result, name,
+                                                lambda s: s.err[:, col] / ARCMIN,
+                                                lambda s: s.sigma[:, col] / ARCMIN)
         joined = None if ref is None else _joined(t, ref.err[:, col] / ARCMIN)
-        return ErrorPanel(env, shown, "" if shown else "diverged on run 0", joined,
-                          _paper(result.summary, name, col), settle if col < 2 else 0)
+        return plotting.ErrorPanel(env, shown, "" if shown else "diverged on run 0", joined,
+                                   _paper(result.summary, name, col), settle if col < 2 else 0)
 
     names = [n for n in _names(result) if n != REFERENCE]
-    error_grid(result, path, grid, panel, estimator_colours(_names(result)), names)
+    plotting.error_grid(result, path, grid, panel, plotting.estimator_colours(_names(result)),
+                        names)
 
 
 def plot_rms(result: CampaignResult, path: Path) -> None:
     """``rms.png`` (module docstring)."""
-    t = run0(result).times
+    t = plotting.run0(result).times
     names = _names(result)
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), layout="constrained")
 
@@ -94,31 +83,31 @@ def plot_rms(result: CampaignResult, path: Path) -> None:
     def column(name: str, y: Array, col: int) -> Array | None:
         return y[:, col] if name != REFERENCE else _joined(t, y[:, col])
 
-    estimator_lines(axes, t, names, estimator_colours(names), rms, column)
+    plotting.estimator_lines(axes, t, names, plotting.estimator_colours(names), rms, column)
     tilt = (result.summary.get("limits") or {}).get("tilt_limit_arcmin")
-    log_time_panels(fig, axes, result, [f"{axis}: RMS over runs" for axis in AXES],
-                    (tilt, tilt, None), "arcmin",
-                    "misalignment RMS (dotted: the level limit ∇/g)", path, 6)
+    plotting.log_time_panels(fig, axes, result, [f"{axis}: RMS over runs" for axis in AXES],
+                             (tilt, tilt, None), "arcmin",
+                             "misalignment RMS (dotted: the level limit ∇/g)", path, 6)
 
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
     """``nees.png`` (module docstring)."""
     fig, ax = plt.subplots(figsize=(10.0, 4.8), layout="constrained")
-    t = run0(result).times
+    t = plotting.run0(result).times
     names = _names(result)
-    colours = estimator_colours(names)
+    colours = plotting.estimator_colours(names)
     for name in names:
-        scores = good_scores(result, name)
+        scores = plotting.good_scores(result, name)
         if not scores:
             continue
-        y = run_average([s.nees for s in scores], 3.0)
+        y = plotting.run_average([s.nees for s in scores], 3.0)
         if name == REFERENCE:
             ok = np.isfinite(y)
             ax.plot(t[ok], y[ok], color=colours[name], lw=1.0, marker=".", ms=3, label=name)
         else:
             ax.plot(t, y, color=colours[name], lw=1.0, label=name)
-    nees_band_axes(ax, result, 3, "misalignment NEES (3 dof) vs its 95 % band")
-    save(fig, path)
+    plotting.nees_band_axes(ax, result, 3, "misalignment NEES (3 dof) vs its 95 % band")
+    plotting.save(fig, path)
 
 
 def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:

@@ -17,39 +17,26 @@ from __future__ import annotations
 from typing import Any
 
 from slam.kinds.alignment.figures import CAPTIONS, figure_writers
+from slam.render import tables
 from slam.render.document import KindReport, Section, captioned, sections_markdown
-from slam.render.tables import (
-    MISSING,
-    anees_cell,
-    band_note,
-    consistency_rule,
-    diverged_cell,
-    estimator_entries,
-    failure_notes,
-    num,
-    percent,
-    plain_table,
-    verdict,
-    wrap,
-)
 from slam.results import REFERENCE
 
 AXES = ("east", "north", "azimuth")
 
 
 def _axis(e: dict[str, Any], key: str, axis: str, fmt: str = ".2f") -> str:
-    return num((e.get(key) or {}).get(axis), fmt)
+    return tables.num((e.get(key) or {}).get(axis), fmt)
 
 
 def _windows(e: dict[str, Any], axis: str = "east") -> str:
     vals = (e.get("rms_window_arcmin") or {}).get(axis) or []
-    return " / ".join(num(v, ".2f") for v in vals) or MISSING
+    return " / ".join(tables.num(v, ".2f") for v in vals) or tables.MISSING
 
 
 def _time(name: str, e: dict[str, Any]) -> str:
     if name == REFERENCE:
-        return f"{num(e.get('time_per_run_s'), '.2f')} s/run"
-    return num(e.get("time_per_cycle_s"), ".2f", 1e3)
+        return f"{tables.num(e.get('time_per_run_s'), '.2f')} s/run"
+    return tables.num(e.get("time_per_cycle_s"), ".2f", 1e3)
 
 
 RESULT_HEADER = ("estimator", "final E (′)", "final N (′)", "final az (′)", "settle E (s)",
@@ -63,12 +50,13 @@ def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter and the smoother (columns :data:`RESULT_HEADER`)."""
     return [[name, *(_axis(e, "final_rms_arcmin", a) for a in AXES),
              _axis(e, "settle_s", "east", ".1f"), _axis(e, "settle_s", "north", ".1f"),
-             _windows(e), num(e.get("east_trend_arcmin_per_100s"), "+.2f"), anees_cell(e),
-             percent(e.get("anees_steps_inside_95")), verdict(e) or MISSING,
-             anees_cell(e, "anees_level", "anees_level_bounds_95"),
-             anees_cell(e, "anees_state", "anees_state_bounds_95"),
-             num(e.get("nis_mean"), ".2f"), _time(name, e), diverged_cell(e)]
-            for name, e in estimator_entries(summary)]
+             _windows(e), tables.num(e.get("east_trend_arcmin_per_100s"), "+.2f"),
+             tables.anees_cell(e),
+             tables.percent(e.get("anees_steps_inside_95")), tables.verdict(e) or tables.MISSING,
+             tables.anees_cell(e, "anees_level", "anees_level_bounds_95"),
+             tables.anees_cell(e, "anees_state", "anees_state_bounds_95"),
+             tables.num(e.get("nis_mean"), ".2f"), _time(name, e), tables.diverged_cell(e)]
+            for name, e in tables.estimator_entries(summary)]
 
 
 CLAIM_HEADER = ("filter", "paper", "ours", "holds")
@@ -77,7 +65,7 @@ CLAIM_HEADER = ("filter", "paper", "ours", "holds")
 def _ratio(ours: Any, paper: float) -> str:
     """``"no: ours 12× smaller"``, or ``"about equal"`` within 20 %."""
     if not isinstance(ours, int | float) or not ours > 0:
-        return MISSING
+        return tables.MISSING
     r = ours / paper
     if 1 / 1.2 <= r <= 1.2:
         return "about equal"
@@ -90,15 +78,16 @@ def _claims_uthinf(c: dict[str, Any], e: dict[str, Any]) -> list[list[str]]:
         if isinstance(c.get(key), int | float):
             ours = (e.get("final_rms_arcmin") or {}).get(axis)
             rows.append(["uthinf", f"final {axis} error {c[key]:g}′",
-                         f"{num(ours, '.2f')}′ (RMS over runs)", _ratio(ours, c[key])])
+                         f"{tables.num(ours, '.2f')}′ (RMS over runs)", _ratio(ours, c[key])])
     if isinstance(c.get("settle_within_s"), int | float):
         st = [(e.get("settle_s") or {}).get(a) for a in ("east", "north")]
         ok = all(isinstance(v, int | float) for v in st)
         worst = max(st) if ok else None  # type: ignore[type-var]
         rows.append(["uthinf", f"settles within {c['settle_within_s']:g} s",
-                     f"E/N within 1.2× final from {num(st[0], '.1f')} / {num(st[1], '.1f')} s",
-                     MISSING if worst is None else ("yes" if worst <= c["settle_within_s"]
-                                                    else "no")])
+                     f"E/N within 1.2× final from {tables.num(st[0], '.1f')} / "
+                     f"{tables.num(st[1], '.1f')} s",
+                     tables.MISSING if worst is None else ("yes" if worst <= c["settle_within_s"]
+                                                           else "no")])
     return rows
 
 
@@ -112,7 +101,7 @@ def _claims_ukf(c: dict[str, Any], e: dict[str, Any]) -> list[list[str]]:
     grows = q[-1] > 1.2 * q[1]  # diverging: the last quarter 20 % above the second
     return [["ukf", f"east: {c['east']}",
              f"E RMS by quarter {_windows(e)}′; trend over the second half "
-             f"{num(trend, '+.2f')}′/100 s", "yes" if grows else "no"]]
+             f"{tables.num(trend, '+.2f')}′/100 s", "yes" if grows else "no"]]
 
 
 def claim_rows(summary: dict[str, Any]) -> list[list[str]]:
@@ -136,29 +125,32 @@ def limit_rows(summary: dict[str, Any]) -> list[list[str]]:
     az = lim.get("azimuth_limit_deg")
     return [
         ["accelerometer bias σ (constant ⊕ Markov)",
-         f"{num(lim.get('accel_bias_sigma_g'), '.2e')} g"],
-        ["level limit ∇/g (East and North)", f"{num(lim.get('tilt_limit_arcmin'), '.2f')}′"],
+         f"{tables.num(lim.get('accel_bias_sigma_g'), '.2e')} g"],
+        ["level limit ∇/g (East and North)", f"{tables.num(lim.get('tilt_limit_arcmin'), '.2f')}′"],
         ["gyro drift σ (constant ⊕ Markov)",
-         f"{num(lim.get('gyro_drift_sigma_deg_h'), '.1f')} °/h"],
+         f"{tables.num(lim.get('gyro_drift_sigma_deg_h'), '.1f')} °/h"],
         ["horizontal Earth rate Ω cos L",
-         f"{num(lim.get('earth_rate_horizontal_deg_h'), '.2f')} °/h"],
+         f"{tables.num(lim.get('earth_rate_horizontal_deg_h'), '.2f')} °/h"],
         ["azimuth limit ε_E / (Ω cos L)",
-         f"{num(az, '.1f')}°" if az is not None else
-         f"none: drift is {num(lim.get('drift_over_earth_rate'), '.1f')}× the Earth rate; "
+         f"{tables.num(az, '.1f')}°" if az is not None else
+         f"none: drift is {tables.num(lim.get('drift_over_earth_rate'), '.1f')}× the Earth rate; "
          "azimuth is not observable"],
     ]
 
 
 def _facts(summary: dict[str, Any]) -> str:
     mis = summary.get("initial_misalignment_deg") or []
-    return (f"{summary.get('runs', '?')} runs of {num(summary.get('duration_s'), 'g')} s; IMU "
-            f"at {num(summary.get('imu_rate_hz'), 'g')} Hz, filters at "
-            f"{num(summary.get('filter_rate_hz'), 'g')} Hz (γ = {num(summary.get('gamma'), 'g')}"
+    return (f"{summary.get('runs', '?')} runs of {tables.num(summary.get('duration_s'), 'g')} s;"
+            f" IMU at {tables.num(summary.get('imu_rate_hz'), 'g')} Hz, filters at "
+            f"{tables.num(summary.get('filter_rate_hz'), 'g')} Hz "
+            f"(γ = {tables.num(summary.get('gamma'), 'g')}"
             f" for uthinf/srchinf); initial misalignment "
-            f"{', '.join(num(v, 'g') for v in mis)}° (E, N, Up); low-frequency (0.25 Hz) wind "
+            f"{', '.join(tables.num(v, 'g') for v in mis)}° (E, N, Up); "
+            "low-frequency (0.25 Hz) wind "
             f"amplitude {summary.get('low_frequency_wind_mps')} m/s. Errors: residual "
             "misalignment in arcmin, RMS over the runs at the last epoch. Settling: the epoch "
-            f"after which the Monte Carlo RMS stays within {num(summary.get('settle_factor'), 'g')}"
+            "after which the Monte Carlo RMS stays within "
+            f"{tables.num(summary.get('settle_factor'), 'g')}"
             "× its final value. 'E RMS by quarter': East error RMS over each quarter of the run; "
             "trend: slope of the East RMS over the second half. ANEES: 3-dof misalignment; level: "
             "East and North alone (2-dof); "
@@ -188,7 +180,7 @@ HOW_TO_READ = (
     "(the EKF's moves further during the levelling): the 3-dof ANEES is that azimuth "
     "term; see the level-axes ANEES. The smoother's azimuth error also stays near its "
     "start, with a smaller σ than that (its ANEES; not examined here). "
-    + consistency_rule())
+    + tables.consistency_rule())
 
 
 def _note(summary: dict[str, Any]) -> str:
@@ -234,17 +226,18 @@ def text_table(summary: dict[str, Any]) -> str:
     rows = [[r[i].split(" [")[0] for i in at] for r in result_rows(summary)]
     head = list(picks.values())
     lim = summary.get("limits") or {}
-    tail = (f"limits: level {num(lim.get('tilt_limit_arcmin'), '.2f')}′ (∇/g); azimuth "
+    tail = (f"limits: level {tables.num(lim.get('tilt_limit_arcmin'), '.2f')}′ (∇/g); azimuth "
             + ("not observable (drift "
-               f"{num(lim.get('drift_over_earth_rate'), '.1f')}× Earth rate)"
+               f"{tables.num(lim.get('drift_over_earth_rate'), '.1f')}× Earth rate)"
                if not lim.get("azimuth_observable") else
-               f"{num(lim.get('azimuth_limit_deg'), '.1f')}°"))
+               f"{tables.num(lim.get('azimuth_limit_deg'), '.1f')}°"))
     notes = ["E′ N′ az′: RMS misalignment over the runs at the end, arcmin; E s, N s: "
              "seconds until the RMS stays within 1.2× its final value; E trend: east RMS "
              "change per 100 s over the second half; level: the ANEES of the east and north "
              "misalignment alone.",
-             band_note(summary), *failure_notes(summary)]
-    return "\n".join([plain_table(head, rows), "", tail, *(wrap(n) for n in notes if n)])
+             tables.band_note(summary), *tables.failure_notes(summary)]
+    return "\n".join([tables.plain_table(head, rows), "", tail,
+                      *(tables.wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,

@@ -17,19 +17,8 @@ from __future__ import annotations
 from typing import Any
 
 from slam.kinds.ship.figures import CAPTIONS, figure_writers
+from slam.render import tables
 from slam.render.document import KindReport, Section, captioned, sections_markdown
-from slam.render.tables import (
-    MISSING,
-    anees_cell,
-    band_note,
-    diverged_cell,
-    estimator_entries,
-    failure_notes,
-    num,
-    plain_table,
-    verdict,
-    wrap,
-)
 from slam.results import REFERENCE
 
 RULES = {"ekf": "linearised (MEKF)", "ukf": "unscented α=1 κ=0", "cdkf": "central diff. h=√3",
@@ -45,25 +34,25 @@ EFFECT_STEPS = (("(a)", "ukf:additive"), ("(b)", "ukf"), ("(c)", "hommukf"), ("(
 
 def _axes(d: Any, fmt: str = ".2f") -> list[str]:
     d = d if isinstance(d, dict) else {}
-    return [num(d.get(a), fmt) for a in ("roll", "pitch", "yaw")]
+    return [tables.num(d.get(a), fmt) for a in ("roll", "pitch", "yaw")]
 
 
 def _converge(e: dict[str, Any], key: str = "converge_roll_pitch_s") -> str:
     c = e.get(key) or {}
-    cell = f"{num(c.get('median'), '.0f')} [{num(c.get('max'), '.0f')}]"
+    cell = f"{tables.num(c.get('median'), '.0f')} [{tables.num(c.get('max'), '.0f')}]"
     never = c.get("never")
     return cell + (f" ({never} never)" if never else "")
 
 
 def _final_yaw(e: dict[str, Any]) -> str:
     y = (e.get("final_abs_arcmin") or {}).get("yaw") or {}
-    return f"{num(y.get('mean'), '.2f')} ({num(y.get('p95'), '.2f')})"
+    return f"{tables.num(y.get('mean'), '.2f')} ({tables.num(y.get('p95'), '.2f')})"
 
 
 def _time(name: str, e: dict[str, Any]) -> str:
     if name == REFERENCE:
-        return f"{num(e.get('time_s'), '.2f')} s/run"
-    return num(e.get("time_per_cycle_s"), ".2f", 1e3)
+        return f"{tables.num(e.get('time_s'), '.2f')} s/run"
+    return tables.num(e.get("time_per_cycle_s"), ".2f", 1e3)
 
 
 def _treatment(name: str, e: dict[str, Any]) -> str:
@@ -83,12 +72,12 @@ RESULT_HEADER = ("estimator", "treatment", "RMS roll (′)", "RMS pitch (′)", 
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     """One row per filter and the smoother (columns :data:`RESULT_HEADER`)."""
     return [[name, _treatment(name, e), *_axes(e.get("att_rms_arcmin")),
-             num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"), _converge(e),
-             _converge(e, "converge_yaw_s"), _final_yaw(e), anees_cell(e),
-             num(e.get("anees_inside_95"), ".0%"), _verdict_word(e),
-             anees_cell(e, "anees_att", "anees_att_bounds_95"),
-             num(e.get("nis_mean_steady"), ".2f"), _time(name, e), diverged_cell(e)]
-            for name, e in estimator_entries(summary)]
+             tables.num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"), _converge(e),
+             _converge(e, "converge_yaw_s"), _final_yaw(e), tables.anees_cell(e),
+             tables.num(e.get("anees_inside_95"), ".0%"), _verdict_word(e),
+             tables.anees_cell(e, "anees_att", "anees_att_bounds_95"),
+             tables.num(e.get("nis_mean_steady"), ".2f"), _time(name, e), tables.diverged_cell(e)]
+            for name, e in tables.estimator_entries(summary)]
 
 
 EFFECT_HEADER = ("step", "estimator", "points", "quaternion mean", "measurement",
@@ -115,9 +104,10 @@ def effect_rows(summary: dict[str, Any]) -> list[list[str]]:
         t = e.get("treatment")
         rows.append([step, name, RULES.get(name.partition(":")[0], "?"), MEANS.get(t, "?"),
                      MEASUREMENTS.get(t, "?"), *_axes(e.get("att_rms_arcmin")),
-                     num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"),
-                     _final_yaw(e), anees_cell(e), num(e.get("anees_inside_95"), ".0%"),
-                     diverged_cell(e)])
+                     tables.num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"),
+                     _final_yaw(e), tables.anees_cell(e),
+                     tables.num(e.get("anees_inside_95"), ".0%"),
+                     tables.diverged_cell(e)])
     return rows
 
 
@@ -126,7 +116,8 @@ COMPARISON_HEADER = ("a", "b", "what differs", "mean ΔMSE a−b (′²)", "± s
 
 def comparison_rows(summary: dict[str, Any]) -> list[list[str]]:
     """Paired per-run differences of the steady-state attitude MSE."""
-    return [[c["a"], c["b"], c["what"], num(c.get("mean"), ".3g"), num(c.get("se"), ".3g"),
+    return [[c["a"], c["b"], c["what"], tables.num(c.get("mean"), ".3g"),
+             tables.num(c.get("se"), ".3g"),
              f"{c.get('a_better_runs', '?')}/{c.get('runs', '?')}"]
             for c in summary.get("comparisons") or [] if c.get("runs")]
 
@@ -139,21 +130,22 @@ def _bound_row(name: str, e: dict[str, Any], bound: float, axes: tuple[str, ...]
     worst = e.get("att_max_abs_steady_p95_arcmin") or {}
     vals = [worst.get(a) for a in axes]
     ours = max(vals) if all(isinstance(v, int | float) for v in vals) else None
-    holds = MISSING if ours is None else ("yes" if ours <= bound else "no")
+    holds = tables.MISSING if ours is None else ("yes" if ours <= bound else "no")
     return [name, f"{', '.join(axes)} within {bound:g}′",
-            f"{num(ours, '.2f')}′ (95 % of runs stay below, {window})", holds]
+            f"{tables.num(ours, '.2f')}′ (95 % of runs stay below, {window})", holds]
 
 
 def claim_rows(summary: dict[str, Any]) -> list[list[str]]:
     """Each claim of the paper beside our number (see :data:`HOW_TO_READ`)."""
     claims = (summary.get("paper") or {}).get("claims") or {}
     w = summary.get("steady_state_window_s") or [0, 0]
-    window = f"{num(w[0], 'g')}-{num(w[1], 'g')} s"
+    window = f"{tables.num(w[0], 'g')}-{tables.num(w[1], 'g')} s"
     rows = []
     for name, c in claims.items():
         e = (summary.get("filters") or {}).get(name)
         if e is None or not e.get("runs_scored"):
-            rows.append([name, "(not run or diverged on every run)", MISSING, MISSING])
+            rows.append([name, "(not run or diverged on every run)", tables.MISSING,
+                         tables.MISSING])
             continue
         if isinstance(c.get("roll_pitch_within_arcmin"), int | float):
             rows.append(_bound_row(name, e, c["roll_pitch_within_arcmin"], ("roll", "pitch"),
@@ -169,11 +161,12 @@ def claim_rows(summary: dict[str, Any]) -> list[list[str]]:
 
 def _facts(summary: dict[str, Any]) -> str:
     w = summary.get("steady_state_window_s") or [None, None]
-    return (f"{summary.get('runs', '?')} runs of {num(summary.get('duration_s'), 'g')} s; "
-            f"gyro at {num(summary.get('gyro_rate_hz'), 'g')} Hz, vector updates at "
-            f"{num(summary.get('update_rate_hz'), 'g')} Hz. Errors in arcmin (′) of the "
+    return (f"{summary.get('runs', '?')} runs of {tables.num(summary.get('duration_s'), 'g')} s; "
+            f"gyro at {tables.num(summary.get('gyro_rate_hz'), 'g')} Hz, vector updates at "
+            f"{tables.num(summary.get('update_rate_hz'), 'g')} Hz. Errors in arcmin (′) of the "
             "Z-Y-X Euler angles, RMS over the runs and the whole run (ss: steady state "
-            f"{num(w[0], 'g')}-{num(w[1], 'g')} s). Times to converge: the first epoch after "
+            f"{tables.num(w[0], 'g')}-{tables.num(w[1], 'g')} s). "
+            "Times to converge: the first epoch after "
             "which the error stays below 10′ to the end (median [max] over runs). ANEES: "
             "6-dof (attitude and drift) against the 95 % band of one epoch; 'ANEES att' is "
             "the 3-dof attitude part. Cycle times are wall-clock inside the campaign's "
@@ -252,7 +245,7 @@ def ship_tables(summary: dict[str, Any]) -> str:
 
 
 def _verdict_word(entry: dict[str, Any]) -> str:
-    return verdict(entry, inside="anees_inside_95", above="anees_above_95") or MISSING
+    return tables.verdict(entry, inside="anees_inside_95", above="anees_above_95") or tables.MISSING
 
 
 def text_table(summary: dict[str, Any]) -> str:
@@ -264,14 +257,15 @@ def text_table(summary: dict[str, Any]) -> str:
             "ms/cycle", "diverged"]
     eff = [[r[0], r[1], r[3], r[4], r[7], r[8], r[10].split(" [")[0]]
            for r in effect_rows(summary)]
-    parts = [plain_table(head, res)]
+    parts = [tables.plain_table(head, res)]
     if eff:
-        parts += ["", plain_table(["step", "estimator", "mean", "measurement", "yaw′",
-                                   "yaw ss′", "ANEES"], eff)]
+        parts += ["", tables.plain_table(["step", "estimator", "mean", "measurement", "yaw′",
+                                          "yaw ss′", "ANEES"], eff)]
     notes = ["RMS errors in arcmin; yaw ss′: from the steady-state start (convergence times "
-             "and final yaw in the report).", band_note(summary), *failure_notes(summary),
+             "and final yaw in the report).", tables.band_note(summary),
+             *tables.failure_notes(summary),
              _verdict(summary), _verdict(summary, paper=False)]
-    return "\n".join([*parts, "", *(wrap(n) for n in notes if n)])
+    return "\n".join([*parts, "", *(tables.wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,

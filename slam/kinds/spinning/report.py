@@ -17,47 +17,34 @@ import math
 from typing import Any
 
 from slam.kinds.spinning.figures import figures
+from slam.render import tables
 from slam.render.document import KindReport, Section
-from slam.render.tables import (
-    DIVERGED,
-    MISSING,
-    Column,
-    Table,
-    band_note,
-    consistency_columns,
-    consistency_rule,
-    failure_notes,
-    num,
-    value,
-    wrap,
-)
-from slam.render.tables import plain_table as plain
 from slam.results import REFERENCE
 
 
 def _fallback_cell(name: str, e: dict[str, Any]) -> str:
     if "hinf_fallbacks" not in e:
-        return MISSING
+        return tables.MISSING
     return f"{e['hinf_fallbacks']}/{e['hinf_updates']}"
 
 
 def _time_cell(name: str, e: dict[str, Any]) -> str:
     if name == REFERENCE:
-        return f"{num(e.get('time_s'), '.2f')} s/run"
-    return num(e.get("time_per_cycle_s"), ".3f", 1e3)
+        return f"{tables.num(e.get('time_s'), '.2f')} s/run"
+    return tables.num(e.get("time_per_cycle_s"), ".3f", 1e3)
 
 
-RESULTS = Table((
-    Column("estimator", lambda name, e: "gtsam smoother" if name == REFERENCE else name),
-    Column("pitch mean abs (°)", value("pitch_mean_abs_deg", ".4f")),
-    Column("pitch RMSE (°)", value("pitch_rmse_deg", ".4f")),
-    Column("yaw mean abs (°)", value("yaw_mean_abs_deg", ".3f")),
-    Column("yaw RMSE (°)", value("yaw_rmse_deg", ".3f")),
-    Column("roll RMSE outside (°)", value("roll_rmse_outside_deg", ".3f")),
-    Column("roll RMSE blind (°)", value("roll_rmse_blind_deg", ".2f")),
-    *consistency_columns(), Column("NIS", value("nis_mean", ".2f")),
-    Column("H∞ fallbacks", _fallback_cell),
-    Column("time/cycle (ms)", _time_cell), DIVERGED))
+RESULTS = tables.Table((
+    tables.Column("estimator", lambda name, e: "gtsam smoother" if name == REFERENCE else name),
+    tables.Column("pitch mean abs (°)", tables.value("pitch_mean_abs_deg", ".4f")),
+    tables.Column("pitch RMSE (°)", tables.value("pitch_rmse_deg", ".4f")),
+    tables.Column("yaw mean abs (°)", tables.value("yaw_mean_abs_deg", ".3f")),
+    tables.Column("yaw RMSE (°)", tables.value("yaw_rmse_deg", ".3f")),
+    tables.Column("roll RMSE outside (°)", tables.value("roll_rmse_outside_deg", ".3f")),
+    tables.Column("roll RMSE blind (°)", tables.value("roll_rmse_blind_deg", ".2f")),
+    *tables.consistency_columns(), tables.Column("NIS", tables.value("nis_mean", ".2f")),
+    tables.Column("H∞ fallbacks", _fallback_cell),
+    tables.Column("time/cycle (ms)", _time_cell), tables.DIVERGED))
 """The results table: a row per filter and the smoother."""
 
 
@@ -66,10 +53,10 @@ def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     rows = RESULTS.rows(summary)
     floor = summary.get("roll_floor") or {}
     if floor:
-        row = [MISSING] * len(RESULTS.columns)
+        row = [tables.MISSING] * len(RESULTS.columns)
         row[0] = "roll floor (true pitch, yaw)"
-        row[5] = num(floor.get("roll_rmse_outside_deg"), ".3f")
-        row[6] = num(floor.get("roll_rmse_blind_deg"), ".2f")
+        row[5] = tables.num(floor.get("roll_rmse_outside_deg"), ".3f")
+        row[6] = tables.num(floor.get("roll_rmse_blind_deg"), ".2f")
         rows.append(row)
     return rows
 
@@ -78,28 +65,30 @@ def _results_text(s: dict[str, Any]) -> str:
     tn = s.get("truth_noise") or {}
     b = s.get("blind_area") or {}
     return (f"{s.get('runs', '?')} runs, every epoch of the flight (Δt = "
-            f"{num(s.get('sample_interval_s'), 'g')} s). True noise: magnetometer "
-            f"{num(tn.get('magnetometer_factor'), 'g')}×, gyro {num(tn.get('gyro_factor'), 'g')}× "
+            f"{tables.num(s.get('sample_interval_s'), 'g')} s). True noise: magnetometer "
+            f"{tables.num(tn.get('magnetometer_factor'), 'g')}×, "
+            f"gyro {tables.num(tn.get('gyro_factor'), 'g')}× "
             f"what the filters assume, {tn.get('distribution', '?')}. Roll is eq. 7-8 on the "
             "measured radial field with each estimator's pitch and yaw, wrapped to ±180°; "
             f"'blind' is the geomagnetic blind area (body axis within "
-            f"{num(b.get('threshold_deg'), 'g')}° of the field line, "
-            f"{num(b.get('from_s'), '.1f')}-{num(b.get('to_s'), '.1f')} s; a detector on the "
-            f"measured radial field agrees on {num(b.get('detector_agreement'), '.1%')} of the "
-            f"epochs: misses {num(b.get('detector_missed'), '.1%')} of the blind ones, flags "
-            f"{num(b.get('detector_false'), '.1%')} of the others). The roll floor row "
+            f"{tables.num(b.get('threshold_deg'), 'g')}° of the field line, "
+            f"{tables.num(b.get('from_s'), '.1f')}-{tables.num(b.get('to_s'), '.1f')} s; "
+            "a detector on the measured radial field agrees on "
+            f"{tables.num(b.get('detector_agreement'), '.1%')} of the epochs: misses "
+            f"{tables.num(b.get('detector_missed'), '.1%')} of the blind ones, flags "
+            f"{tables.num(b.get('detector_false'), '.1%')} of the others). The roll floor row "
             "uses the true pitch and yaw: what the magnetometer's noise alone leaves. "
             "ANEES is the run-averaged 2-dof pitch/yaw NEES over 2 against the 95 % band of "
             f"one epoch; 'H∞ fallbacks' are updates whose existence condition failed (γ = "
-            f"{num(s.get('gamma_rad'), 'g')} rad). Cycle times are wall-clock inside the "
-            "campaign's workers. " + consistency_rule())
+            f"{tables.num(s.get('gamma_rad'), 'g')} rad). Cycle times are wall-clock inside the "
+            "campaign's workers. " + tables.consistency_rule())
 
 
 def _best_worst(s: dict[str, Any], key: str) -> tuple[str, str]:
     vals = {n: e.get(key) for n, e in (s.get("filters") or {}).items()
             if isinstance(e.get(key), float)}
     if not vals:
-        return MISSING, MISSING
+        return tables.MISSING, tables.MISSING
     lo, hi = min(vals.values()), max(vals.values())
     best = ", ".join(n for n, v in vals.items() if v <= lo * (1 + 1e-3))
     worst = ", ".join(n for n, v in vals.items() if v >= hi * (1 - 1e-3))
@@ -115,19 +104,22 @@ def paper_rows(s: dict[str, Any]) -> list[list[str]]:
     by, wy = _best_worst(s, "yaw_rmse_deg")
     br, _ = _best_worst(s, "roll_rmse_blind_deg")
     return [
-        ["flight time (s)", num(f.get("target_flight_time_s"), "g"),
-         num(f.get("flight_time_s"), ".2f")],
-        ["range (m)", num(f.get("target_range_m"), ".1f"), num(f.get("range_m"), ".1f")],
-        ["apex (m)", num(f.get("target_apex_m"), "g"), num(f.get("apex_m"), ".1f")],
-        ["most accurate pitch (RMSE)", p.get("best_pitch", MISSING), bp],
-        ["least accurate pitch", p.get("worst_pitch", MISSING), wp],
-        ["most accurate yaw", p.get("best_yaw", MISSING), by],
-        ["least accurate yaw", p.get("worst_yaw", MISSING), wy],
-        ["smallest roll error in the blind area", p.get("best_roll_blind", MISSING), br],
-        ["blind area", p.get("blind_area", MISSING),
-         f"{num(b.get('from_s'), '.1f')}-{num(b.get('to_s'), '.1f')} s (axis within "
-         f"{num(b.get('threshold_deg'), 'g')}° of the field line; closest "
-         f"{num(b.get('closest_angle_deg'), '.2f')}° at {num(b.get('closest_at_s'), '.1f')} s)"],
+        ["flight time (s)", tables.num(f.get("target_flight_time_s"), "g"),
+         tables.num(f.get("flight_time_s"), ".2f")],
+        ["range (m)", tables.num(f.get("target_range_m"), ".1f"),
+         tables.num(f.get("range_m"), ".1f")],
+        ["apex (m)", tables.num(f.get("target_apex_m"), "g"),
+         tables.num(f.get("apex_m"), ".1f")],
+        ["most accurate pitch (RMSE)", p.get("best_pitch", tables.MISSING), bp],
+        ["least accurate pitch", p.get("worst_pitch", tables.MISSING), wp],
+        ["most accurate yaw", p.get("best_yaw", tables.MISSING), by],
+        ["least accurate yaw", p.get("worst_yaw", tables.MISSING), wy],
+        ["smallest roll error in the blind area", p.get("best_roll_blind", tables.MISSING), br],
+        ["blind area", p.get("blind_area", tables.MISSING),
+         f"{tables.num(b.get('from_s'), '.1f')}-{tables.num(b.get('to_s'), '.1f')} s (axis within "
+         f"{tables.num(b.get('threshold_deg'), 'g')}° of the field line; closest "
+         f"{tables.num(b.get('closest_angle_deg'), '.2f')}° at "
+         f"{tables.num(b.get('closest_at_s'), '.1f')} s)"],
     ]
 
 
@@ -144,8 +136,8 @@ def existence_rows(s: dict[str, Any]) -> list[list[str]]:
         if "hinf_fallbacks" in entry:
             rows.append([f"{name} γ={_gamma_text(s.get('gamma_rad'))} (campaign)",
                          "campaign noise", _fallback_cell(name, entry),
-                         str(entry.get("hinf_runs_with_fallbacks", MISSING)),
-                         entry.get("hinf_on_failure", MISSING)])
+                         str(entry.get("hinf_runs_with_fallbacks", tables.MISSING)),
+                         entry.get("hinf_on_failure", tables.MISSING)])
     for dist in sweep.get("distributions", []):
         for row in sweep.get("rows", []):
             cells = [c for c in sweep.get("cells", [])
@@ -180,12 +172,12 @@ def sweep_sections(s: dict[str, Any]) -> list[Section]:
             for f in factors:
                 c = cells.get(f)
                 if c is None or not c["logs"]:
-                    line.append(MISSING)
+                    line.append(tables.MISSING)
                     continue
                 extra = f" [{c['fallbacks']} fb]" if c.get("fallbacks") else ""
                 extra += f" ({c['diverged']} div)" if c.get("diverged") else ""
-                line.append(f"{num(c['rmse_pitch_deg'], '.3f')} / "
-                            f"{num(c['rmse_yaw_deg'], '.3f')}{extra}")
+                line.append(f"{tables.num(c['rmse_pitch_deg'], '.3f')} / "
+                            f"{tables.num(c['rmse_yaw_deg'], '.3f')}{extra}")
             rows.append(line)
         logs = {c["logs"] for c in sweep.get("cells", []) if c["distribution"] == dist}
         text = (f"True noise = factor × assumed on {sweep.get('scale', '?')} "
@@ -286,8 +278,8 @@ def text_table(s: dict[str, Any]) -> str:
         row[5] = row[5].split(" [")[0]
     notes = ["errors: RMSE in degrees over all epochs and runs; roll: outside the blind area, "
              "blind: roll inside it; roll floor*: roll from the magnetometer with the true "
-             "pitch and yaw.", band_note(s), *failure_notes(s)]
-    return "\n".join([plain(header, rows), *(wrap(n) for n in notes if n)])
+             "pitch and yaw.", tables.band_note(s), *tables.failure_notes(s)]
+    return "\n".join([tables.plain_table(header, rows), *(tables.wrap(n) for n in notes if n)])
 
 
 REPORT = KindReport("spinning-projectile attitude campaign", sections, figures, text_table)
