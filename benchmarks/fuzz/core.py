@@ -10,12 +10,13 @@ import tomllib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from . import tomlio
 
 Key = str | int
 KeyPath = tuple[Key, ...]
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 @dataclass(frozen=True)
@@ -182,6 +183,20 @@ def seeded_families(n: int, seed: int, stream: str,
     ``i``) and its family, ``names[i mod F]``."""
     for i in range(n):
         yield random.Random(f"{seed}:{stream}:{i}"), names[i % len(names)]
+
+
+def registrar(table: dict[str, F]) -> Callable[[str], Callable[[F], F]]:
+    """A decorator factory for ``table``: ``@mutator(name)`` (``mutator = registrar(table)``)
+    adds the function below it to ``table`` under ``name``, so a family's name stands at its
+    definition and the table keeps definition order."""
+    def mutator(name: str) -> Callable[[F], F]:
+        def add(fn: F) -> F:
+            if name in table:
+                raise ValueError(f"mutator family {name!r} defined twice")
+            table[name] = fn
+            return fn
+        return add
+    return mutator
 
 
 ELF_HEADER = ("ELF header", b"\x7fELF\x02\x01\x01" + bytes(57))

@@ -13,7 +13,7 @@ import random
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import ELF_HEADER, Case, binary_junk, seeded_families
+from .core import ELF_HEADER, Case, binary_junk, registrar, seeded_families
 
 FIELDS = {
     "ODOMETRY": ("tag", "i", "j", "dx", "dy", "dθ", "cxx", "cxy", "cxθ", "cyy", "cyθ", "cθθ"),
@@ -24,6 +24,10 @@ OFFDIAG = {"ODOMETRY": (7, 8, 10), "LANDMARK": (6,)}
 
 Result = tuple[str, bytes | str]
 LogFamily = Callable[[random.Random, list[str]], Result]
+
+LOG_FAMILIES: dict[str, LogFamily] = {}
+"""Log mutator families, by name, in definition order (each added by ``@mutator``)."""
+mutator = registrar(LOG_FAMILIES)
 
 
 def find_victoria() -> Path:
@@ -68,6 +72,7 @@ _TOKENS = ("1_000", "1e300", "-1e300", "nan", "inf", "-inf", "1e-320", "0x10", "
            "9" * 30, "1,5", "0", "-0", "1e", "１２", "1" * 5000)
 
 
+@mutator("log-number")
 def fam_number(rng: random.Random, lines: list[str]) -> Result:
     """One number or id replaced by a hostile token (``1_000``, ``1e300``, ``١٢٣`` ...)."""
     out = list(lines)
@@ -81,6 +86,7 @@ def fam_number(rng: random.Random, lines: list[str]) -> Result:
     return f"line {i + 1} {tag} {FIELDS[tag][j]} = {shown!r}", _join(out)
 
 
+@mutator("log-cov")
 def fam_cov(rng: random.Random, lines: list[str]) -> Result:
     """Covariances of one line or every line set to 1e-300, 1e300, 0, -1 or non-PD."""
     out = list(lines)
@@ -100,6 +106,7 @@ def fam_cov(rng: random.Random, lines: list[str]) -> Result:
     return f"{where}: {tag} covariance {what}", _join(out)
 
 
+@mutator("log-geometry")
 def fam_geometry(rng: random.Random, lines: list[str]) -> Result:
     """Degenerate geometry: range-0 landmarks, repeated or conflicting sightings, broken
     chains, zero or huge motion, shared ids."""
@@ -159,6 +166,7 @@ def fam_geometry(rng: random.Random, lines: list[str]) -> Result:
     return name, _join(out)
 
 
+@mutator("log-structure")
 def fam_structure(rng: random.Random, lines: list[str]) -> Result:
     """Lines deleted, shuffled, truncated, retagged; empty files, odd separators."""
     out = list(lines)
@@ -192,6 +200,7 @@ def fam_structure(rng: random.Random, lines: list[str]) -> Result:
     return f"{name} (line {at + 1}, byte {cut})", make().encode("utf-8")
 
 
+@mutator("log-binary")
 def fam_binary(rng: random.Random, lines: list[str]) -> Result:
     """Binary junk, NUL bytes, invalid UTF-8, UTF-16, a BOM."""
     text = _join(lines)
@@ -200,6 +209,7 @@ def fam_binary(rng: random.Random, lines: list[str]) -> Result:
     return f"{name} (at byte {at})", data
 
 
+@mutator("log-huge")
 def fam_huge(rng: random.Random, lines: list[str]) -> Result:
     """Pose ids at or beyond 2**63, and thousands of new landmarks at one pose."""
     out = list(lines)
@@ -226,22 +236,11 @@ def fam_huge(rng: random.Random, lines: list[str]) -> Result:
 _PATHS = ("/dev/zero", "/dev/null", ".", "missing.txt", "/etc/passwd")
 
 
+@mutator("log-path")
 def fam_path(rng: random.Random, lines: list[str]) -> Result:
     """``--log`` pointing at /dev/zero, /dev/null, a folder, a missing file."""
     target = rng.choice(_PATHS)
     return f"--log {target}", target
-
-
-LOG_FAMILIES: dict[str, LogFamily] = {
-    "log-number": fam_number,
-    "log-cov": fam_cov,
-    "log-geometry": fam_geometry,
-    "log-structure": fam_structure,
-    "log-binary": fam_binary,
-    "log-huge": fam_huge,
-    "log-path": fam_path,
-}
-"""Log mutator families, by name."""
 
 
 def log_cases(n: int, seed: int, lines: list[str],

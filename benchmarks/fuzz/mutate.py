@@ -31,6 +31,7 @@ from .core import (
     load_bases,
     pick,
     put,
+    registrar,
     render,
     seeded_families,
 )
@@ -38,6 +39,11 @@ from .logmutate import LOG_FAMILIES, load_log_lines, log_cases
 
 __all__ = ["Base", "Case", "WORLD_FAMILIES", "LOG_FAMILIES", "load_bases", "load_log_lines",
            "log_cases", "world_cases", "cheapen", "render"]
+
+WORLD_FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {}
+"""World mutator families, by name: this module's in definition order (each added by
+``@mutator``), then :data:`~benchmarks.fuzz.shapes.FAMILIES` (added after the last)."""
+mutator = registrar(WORLD_FAMILIES)
 
 
 # --------------------------------------------------------------------------- value families
@@ -61,6 +67,7 @@ def _set_value(rng: random.Random, base: Base, family: str,
     return render(base, family, f"{dotted(path)} = {tomlio.value(new)}", doc)
 
 
+@mutator("delete-key")
 def fam_delete(rng: random.Random, base: Base) -> Case:
     """Delete one key or a whole section."""
     doc = copy.deepcopy(base.doc)
@@ -76,6 +83,7 @@ _RENAMES: tuple[Callable[[str], str], ...] = (
 )
 
 
+@mutator("rename-key")
 def fam_rename(rng: random.Random, base: Base) -> Case:
     """Misspell one key or section name (plural, case, homoglyph, empty ...)."""
     doc = copy.deepcopy(base.doc)
@@ -103,24 +111,28 @@ def _wrong(v: Any, rng: random.Random) -> Any:
     return rng.choice(options)
 
 
+@mutator("wrong-type")
 def fam_wrong_type(rng: random.Random, base: Base) -> Case:
     """Give one value another TOML type (string, bool, array, table, date ...)."""
     return _set_value(rng, base, "wrong-type", lambda v: not isinstance(v, dict),
                       lambda v: _wrong(v, rng))
 
 
+@mutator("nonfinite")
 def fam_nonfinite(rng: random.Random, base: Base) -> Case:
     """Set one number to nan, inf or -inf."""
     return _set_value(rng, base, "nonfinite", is_num,
                       lambda v: rng.choice([float("nan"), float("inf"), float("-inf")]))
 
 
+@mutator("zero")
 def fam_zero(rng: random.Random, base: Base) -> Case:
     """Set one number to 0 (or -0.0)."""
     return _set_value(rng, base, "zero", is_num,
                       lambda v: 0 if isinstance(v, int) else rng.choice([0.0, -0.0]))
 
 
+@mutator("negative")
 def fam_negative(rng: random.Random, base: Base) -> Case:
     """Make one number negative."""
     def neg(v: Any) -> Any:
@@ -137,6 +149,7 @@ _FLOAT_EXTREMES = (1e308, -1e308, 1e-308, -1e-308, 5e-324, 1e-300, 1.79769313486
 _INT_EXTREMES = (2**63 - 1, -(2**63), 2**64, 10**30, 10**9, 2**31)
 
 
+@mutator("extreme")
 def fam_extreme(rng: random.Random, base: Base) -> Case:
     """Set one number to 1e+-308, 5e-324, 2**63 and the like."""
     def ext(v: Any) -> Any:
@@ -147,6 +160,7 @@ def fam_extreme(rng: random.Random, base: Base) -> Case:
     return _set_value(rng, base, "extreme", is_num, ext)
 
 
+@mutator("in-range")
 def fam_in_range(rng: random.Random, base: Base) -> Case:
     """Plausible values: a number scaled by 1e-6 ... 1e3 (kept an integer if it was)."""
     def scale(v: Any) -> Any:
@@ -159,6 +173,7 @@ def fam_in_range(rng: random.Random, base: Base) -> Case:
     return _set_value(rng, base, "in-range", is_num, scale)
 
 
+@mutator("arrays")
 def fam_arrays(rng: random.Random, base: Base) -> Case:
     """Empty, shorten, lengthen, nest or mix one array."""
     doc = copy.deepcopy(base.doc)
@@ -185,6 +200,7 @@ def fam_arrays(rng: random.Random, base: Base) -> Case:
     return render(base, "arrays", f"{dotted(path)}: {what}", doc)
 
 
+@mutator("kind")
 def fam_kind(rng: random.Random, base: Base) -> Case:
     """An unknown, mistyped, missing or foreign ``kind``."""
     doc = copy.deepcopy(base.doc)
@@ -200,6 +216,7 @@ def fam_kind(rng: random.Random, base: Base) -> Case:
     return render(base, "kind", f"kind = {tomlio.value(new)}", doc)
 
 
+@mutator("filters")
 def fam_filters(rng: random.Random, base: Base) -> Case:
     """Unknown, repeated or empty filter names; unknown modes and associations."""
     doc = copy.deepcopy(base.doc)
@@ -215,21 +232,7 @@ def fam_filters(rng: random.Random, base: Base) -> Case:
     return render(base, "filters", f"filters.{key} = {tomlio.value(new)}", doc)
 
 
-WORLD_FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {
-    "delete-key": fam_delete,
-    "rename-key": fam_rename,
-    "wrong-type": fam_wrong_type,
-    "nonfinite": fam_nonfinite,
-    "zero": fam_zero,
-    "negative": fam_negative,
-    "extreme": fam_extreme,
-    "in-range": fam_in_range,
-    "arrays": fam_arrays,
-    "kind": fam_kind,
-    "filters": fam_filters,
-    **shapes.FAMILIES,
-}
-"""World mutator families, by name."""
+WORLD_FAMILIES.update(shapes.FAMILIES)
 
 
 def world_cases(n: int, seed: int, bases: list[Base],

@@ -14,8 +14,11 @@ from collections.abc import Callable
 from typing import Any
 
 from . import tomlio
-from .core import ELF_HEADER, Base, Case, binary_junk, dotted, pick, put, render
+from .core import ELF_HEADER, Base, Case, binary_junk, dotted, pick, put, registrar, render
 
+FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {}
+"""The shape mutator families, by name, in definition order (each added by ``@mutator``)."""
+mutator = registrar(FAMILIES)
 Doc = dict[str, Any]
 Edit = Callable[[Doc, dict[str, bytes]], str]
 
@@ -141,6 +144,7 @@ def _geometry_attitude(rng: random.Random) -> tuple[str, Callable[..., Any]]:
     ])
 
 
+@mutator("geometry")
 def fam_geometry(rng: random.Random, base: Base) -> Case:
     """Degenerate geometry of the SLAM kinds' maps and paths, or of the attitude kind's
     star sensor; a kind with neither gets its degenerate settings from the attitude list
@@ -155,6 +159,7 @@ def fam_geometry(rng: random.Random, base: Base) -> Case:
 
 # --------------------------------------------------------------------------- huge sizes
 
+@mutator("huge-size")
 def fam_huge(rng: random.Random, base: Base) -> Case:
     """In-range values whose product is a huge run: long, fine-grained or wide."""
     many = [[(i * 7.31) % 100.0, (i * 3.17) % 100.0] for i in range(20_000)]
@@ -234,6 +239,7 @@ _PATHS = ("/dev/zero", "/dev/null", "/etc/passwd", "missing.json", ".", "",
           "../../../../../../../etc/hostname")
 
 
+@mutator("files")
 def fam_files(rng: random.Random, base: Base) -> Case:
     """Map and mesh files that are not what the key says."""
     doc, extra = copy.deepcopy(base.doc), dict(base.extra)
@@ -265,6 +271,7 @@ def fam_files(rng: random.Random, base: Base) -> Case:
 
 # --------------------------------------------------------------------------- raw text
 
+@mutator("binary")
 def fam_binary(rng: random.Random, base: Base) -> Case:
     text = tomlio.dumps(base.doc).encode()
     at = rng.randrange(len(text))
@@ -285,6 +292,7 @@ def _deep(style: str, depth: int) -> str:
     return "{a = " * depth + "0" + "}" * depth
 
 
+@mutator("nesting")
 def fam_nesting(rng: random.Random, base: Base) -> Case:
     depth = rng.choice([64, 1000, 10_000, 100_000])
     style = rng.choice(["arrays", "inline tables", "table headers"])
@@ -303,6 +311,7 @@ def fam_nesting(rng: random.Random, base: Base) -> Case:
     return render(base, "nesting", f"{style} {depth} deep in {where}", text="".join(lines))
 
 
+@mutator("syntax")
 def fam_syntax(rng: random.Random, base: Base) -> Case:
     text = tomlio.dumps(base.doc)
     lines = text.splitlines(keepends=True)
@@ -333,6 +342,7 @@ _STRINGS = ("x" * 1_000_000, "", "a\nb", "\x00", "\u202eevil", "🚀" * 50, "   
             "planar-slam\n", "nan")
 
 
+@mutator("strings")
 def fam_strings(rng: random.Random, base: Base) -> Case:
     doc = copy.deepcopy(base.doc)
     path = pick(rng, doc, lambda v: isinstance(v, str)) or ("description",)
@@ -340,15 +350,4 @@ def fam_strings(rng: random.Random, base: Base) -> Case:
     put(doc, path, new)
     shown = new if len(new) < 20 else f"{new[:5]}...({len(new)} chars)"
     return render(base, "strings", f"{dotted(path)} = {shown!r}", doc)
-
-
-FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {
-    "geometry": fam_geometry,
-    "huge-size": fam_huge,
-    "files": fam_files,
-    "binary": fam_binary,
-    "nesting": fam_nesting,
-    "syntax": fam_syntax,
-    "strings": fam_strings,
-}
 
