@@ -3,11 +3,13 @@ fields every validated world has (:class:`WorldBase`), the sampled-sensor and
 joint-filter mixins of their section dataclasses and the world properties counting
 samples and epochs, the checks across keys that recur (a rate dividing another, a
 duration of whole periods, one value below another), and the key specs that recur
-(noise densities, prior σ, the divergence bound)."""
+(noise densities, prior σ, the divergence bound), and the whole of a ``parse`` that checks
+nothing else (:func:`parse_checked`)."""
 
 from __future__ import annotations
 
 import operator
+from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
@@ -58,6 +60,17 @@ class JointOnly:
     @property
     def mode(self) -> str:
         return "joint"
+
+
+def parse_checked(world: ws.Section, rules: Sequence[ws.Rule], data: dict[str, Any], name: str,
+                  source: str) -> Any:
+    """Read a parsed TOML document ``data`` against the table ``world`` (:func:`world`),
+    make the checks across keys ``rules`` in order and build the world: a kind's ``parse``
+    when the schema and its rules are all it checks (``source`` is shown in errors)."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, world.schema, root)
+    ws.check_rules(rules, v, root)
+    return ws.build(world, v, name=name, source=source)
 
 
 def per_epoch(fast: str, slow: str, doc: str) -> property:

@@ -218,7 +218,4 @@ epochs and divide the run (the last two)."""
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> AlignmentWorld:
     """Validate a parsed ``alignment`` TOML document and build its :class:`AlignmentWorld`."""
-    root = ws.Where(source, "")
-    v = ws.read_table(data, SCHEMA, root)
-    ws.check_rules(RULES, v, root)
-    return ws.build(WORLD, v, name=name, source=source)
+    return wc.parse_checked(WORLD, RULES, data, name, source)

@@ -64,7 +64,8 @@ from the same points.  Analytic Jacobians are given for the EKF.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Self
 
 import numpy as np
 
@@ -111,10 +112,11 @@ class ImuNoise:
                                np.full(3, self.gyro_arw**2), np.full(3, self.gyro_bias_rw**2),
                                np.full(3, self.accel_bias_rw**2)])
 
-    def scaled(self, variance_scale: float) -> ImuNoise:
+    def scaled(self, variance_scale: float) -> Self:
+        """These densities for variances ``variance_scale`` times larger (same type)."""
         s = float(np.sqrt(variance_scale))
-        return ImuNoise(self.gyro_arw * s, self.accel_vrw * s, self.gyro_bias_rw * s,
-                        self.accel_bias_rw * s)
+        return replace(self, gyro_arw=self.gyro_arw * s, accel_vrw=self.accel_vrw * s,
+                       gyro_bias_rw=self.gyro_bias_rw * s, accel_bias_rw=self.accel_bias_rw * s)
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ from estimators import Euclidean, Measurement, Noise, Product, Transition
 from nav.quaternion import skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import attitudes, dcm_unit, mechanise
-from slam.kinds.drone.models import psd_sqrt
+from slam.kinds.drone.models import ImuNoise, psd_sqrt
 
 Array = NDArray[np.float64]
 P, V, Q, EC, EM, NB = (slice(0, 3), slice(3, 6), slice(6, 10), slice(10, 13), slice(13, 16),
@@ -64,23 +64,19 @@ __all__ = ["SPACE", "InsNoise", "error_transition", "gnss_measurement", "ins_tra
 
 
 @dataclass(frozen=True)
-class InsNoise:
-    """Densities (per √s) and correlation times the INS model assumes: gyro and
-    accelerometer white noise, Markov driving densities, :math:`T_a, T_b` (s)."""
+class InsNoise(ImuNoise):
+    """The densities (per √s) of :class:`~slam.kinds.drone.models.ImuNoise`, whose bias
+    densities here drive the gyro and accelerometer Markov drifts, with their correlation
+    times :math:`T_a, T_b` (s)."""
 
-    gyro_arw: float
-    accel_vrw: float
-    gyro_drift_rw: float
-    accel_drift_rw: float
     gyro_time_s: float
     accel_time_s: float
 
     def qc(self) -> Array:
-        """Diagonal of :math:`GQ_cG^\\top` on the 18-d error state."""
-        return np.concatenate([np.zeros(3), np.full(3, self.accel_vrw**2),
-                               np.full(3, self.gyro_arw**2), np.zeros(3),
-                               np.full(3, self.gyro_drift_rw**2),
-                               np.full(3, self.accel_drift_rw**2)])
+        """Diagonal of :math:`GQ_cG^\\top` on the 18-d error state: the 15-d vehicle
+        diagonal with a zero block for the constant drift ε_c before the Markov drifts."""
+        q = super().qc()
+        return np.concatenate([q[:9], np.zeros(3), q[9:]])
 
 
 def propagate(X: Array, gyro: Array, accel: Array, dt: float, gravity: Array,

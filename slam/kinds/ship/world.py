@@ -225,7 +225,4 @@ RULES = (
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> ShipWorld:
     """Validate a parsed ``ship`` TOML document and build its :class:`ShipWorld`."""
-    root = ws.Where(source, "")
-    v = ws.read_table(data, SCHEMA, root)
-    ws.check_rules(RULES, v, root)
-    return ws.build(WORLD, v, name=name, source=source)
+    return wc.parse_checked(WORLD, RULES, data, name, source)
