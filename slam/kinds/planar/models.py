@@ -63,36 +63,52 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
     """
 
     def f(X: Array, u: Array, W: Array) -> Array:
+        # Per-step controls as (n_steps, m) rows; the same operations as car_step per step.
+        V = u[:, :1] + W[:, 0::2].T
+        G = u[:, 1:] + W[:, 1::2].T
+        vdt = V * dt
+        turn = vdt * np.sin(G) / wheelbase
         Y = X.copy()
-        P = X[:, :3]
+        x, y, heading = Y[:, 0], Y[:, 1], X[:, 2]
         for i in range(n_steps):
-            P = car_step(P, u[i, 0] + W[:, 2 * i], u[i, 1] + W[:, 2 * i + 1], dt, wheelbase)
-        Y[:, :3] = P
+            a = G[i] + heading
+            x += vdt[i] * np.cos(a)
+            y += vdt[i] * np.sin(a)
+            heading = wrap_angle(heading + turn[i])
+        Y[:, 2] = heading
         return Y
 
     def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
         n = x.shape[0]
+        V, Gs = u[:, 0], u[:, 1]
+        vdt = V * dt
+        turn = vdt * np.sin(Gs) / wheelbase
+        heading = np.empty(n_steps)  # along the mean path, as car_step steps it
+        h, turns = float(x[2]), turn.tolist()
+        for i in range(n_steps):
+            heading[i] = h
+            h = wrap_angle(h + turns[i])
+        a = Gs + heading
+        sa, ca = np.sin(a), np.cos(a)
+        F = np.zeros((n_steps, 3, 3))
+        F[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        F[:, 0, 2] = -V * dt * sa
+        F[:, 1, 2] = V * dt * ca
+        Gi = np.empty((n_steps, 3, 2))
+        Gi[:, 0, 0], Gi[:, 0, 1] = dt * ca, -V * dt * sa
+        Gi[:, 1, 0], Gi[:, 1, 1] = dt * sa, V * dt * ca
+        Gi[:, 2, 0], Gi[:, 2, 1] = dt * np.sin(Gs) / wheelbase, V * dt * np.cos(Gs) / wheelbase
         Fv = np.eye(3)
         Gv = np.zeros((3, 2 * n_steps))
-        p = x[None, :3]
         for i in range(n_steps):
-            V, Gs = u[i]
-            a = Gs + p[0, 2]
-            Fi = np.eye(3)
-            Fi[0, 2] = -V * dt * np.sin(a)
-            Fi[1, 2] = V * dt * np.cos(a)
-            Gi = np.array([[dt * np.cos(a), -V * dt * np.sin(a)],
-                           [dt * np.sin(a), V * dt * np.cos(a)],
-                           [dt * np.sin(Gs) / wheelbase, V * dt * np.cos(Gs) / wheelbase]])
-            Fv = Fi @ Fv
-            Gv = Fi @ Gv
-            Gv[:, 2 * i:2 * i + 2] = Gi
-            p = car_step(p, V, Gs, dt, wheelbase)
-        F = np.eye(n)
-        F[:3, :3] = Fv
+            Fv = F[i] @ Fv
+            Gv = F[i] @ Gv
+            Gv[:, 2 * i:2 * i + 2] = Gi[i]
+        Fm = np.eye(n)
+        Fm[:3, :3] = Fv
         Gm = np.zeros((n, 2 * n_steps))
         Gm[:3] = Gv
-        return F, Gm
+        return Fm, Gm
 
     cov = np.kron(np.eye(n_steps), control_cov)
     return Transition(f, Noise.from_cov(cov), additive=False, jacobian=jacobian)
