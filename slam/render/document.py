@@ -63,6 +63,11 @@ class KindReport:
     extra_files: Callable[[CampaignResult, Path], list[str]] = lambda result, out: []
     links: Callable[[CampaignResult], list[Link]] = lambda result: []
 
+    def markdown(self, summary: dict[str, Any]) -> str:
+        """Markdown of the kind's sections alone (:func:`sections_markdown`): its tables
+        for the README and the tests."""
+        return sections_markdown(self.sections(summary))
+
 
 def report_links(result: CampaignResult, kr: KindReport) -> list[Link]:
     """Every file the report links to: the summary, the Markdown report and the kind's."""

@@ -18,7 +18,7 @@ from typing import Any
 
 from slam.kinds.alignment.figures import CAPTIONS, figure_writers
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned, sections_markdown
+from slam.render.document import KindReport, Section, captioned
 from slam.results import REFERENCE
 
 AXES = ("east", "north", "azimuth")
@@ -209,10 +209,6 @@ def alignment_sections(summary: dict[str, Any]) -> list[Section]:
     out.append(Section("How to read this", text=HOW_TO_READ))
     return out
 
-
-def alignment_tables(summary: dict[str, Any]) -> str:
-    """Markdown of every section (for the README and the tests)."""
-    return sections_markdown(alignment_sections(summary))
 
 
 def text_table(summary: dict[str, Any]) -> str:

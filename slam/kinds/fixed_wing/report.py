@@ -25,7 +25,6 @@ from slam.render.tables import (
     consistency_rule,
     estimator_entries,
     failure_notes,
-    markdown_table,
     num,
     plain_table,
     value,
@@ -206,18 +205,6 @@ def text_table(s: dict[str, Any]) -> str:
     notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s)]
     return "\n".join([t1, "", res, "(RMSE in degrees over all epochs and runs)",
                       *[wrap(n) for n in notes if n]])
-
-
-def tables_markdown(s: dict[str, Any]) -> str:
-    """Markdown of every section (README and tests)."""
-    parts = []
-    for sec in sections(s):
-        parts += [f"### {sec.title}", ""]
-        if sec.header is not None:
-            parts += [markdown_table(sec.header, sec.rows), ""]
-        if sec.text:
-            parts += [sec.text, ""]
-    return "\n".join(parts)
 
 
 REPORT = KindReport("fixed-wing UAV attitude campaign ([Fixed-wing EA-UKF])", sections,

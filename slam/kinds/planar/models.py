@@ -38,17 +38,6 @@ def observation_space(k: int) -> Wrapped:
     return Wrapped(2 * k, tuple(range(1, 2 * k, 2)))
 
 
-def car_step(P: Array, V: Array, G: Array, dt: float, wheelbase: float) -> Array:
-    """One step of the car model for poses ``P`` (m, 3) and controls (m,) or scalars."""
-    out = np.empty_like(P)
-    vdt = V * dt
-    a = G + P[:, 2]
-    out[:, 0] = P[:, 0] + vdt * np.cos(a)
-    out[:, 1] = P[:, 1] + vdt * np.sin(a)
-    out[:, 2] = wrap_angle(P[:, 2] + vdt * np.sin(G) / wheelbase)
-    return out
-
-
 def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int = 1
                  ) -> Transition:
     r"""Joint-state transition over ``n_steps`` control steps; landmarks stay.
@@ -63,7 +52,7 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
     """
 
     def f(X: Array, u: Array, W: Array) -> Array:
-        # Per-step controls as (n_steps, m) rows; the same operations as car_step per step.
+        # Per-step controls as (n_steps, m) rows, then the motion equations above step by step.
         V = u[:, :1] + W[:, 0::2].T
         G = u[:, 1:] + W[:, 1::2].T
         vdt = V * dt
@@ -83,7 +72,7 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
         V, Gs = u[:, 0], u[:, 1]
         vdt = V * dt
         turn = vdt * np.sin(Gs) / wheelbase
-        heading = np.empty(n_steps)  # along the mean path, as car_step steps it
+        heading = np.empty(n_steps)  # along the mean path, as f steps it
         h, turns = float(x[2]), turn.tolist()
         for i in range(n_steps):
             heading[i] = h

@@ -18,7 +18,7 @@ from typing import Any
 
 from slam.kinds.ship.figures import CAPTIONS, figure_writers
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned, sections_markdown
+from slam.render.document import KindReport, Section, captioned
 from slam.results import REFERENCE
 
 RULES = {"ekf": "linearised (MEKF)", "ukf": "unscented α=1 κ=0", "cdkf": "central diff. h=√3",
@@ -238,10 +238,6 @@ def ship_sections(summary: dict[str, Any]) -> list[Section]:
     out.append(Section("How to read this", text=HOW_TO_READ))
     return out
 
-
-def ship_tables(summary: dict[str, Any]) -> str:
-    """Markdown of every section (for the README and the tests)."""
-    return sections_markdown(ship_sections(summary))
 
 
 def _verdict_word(entry: dict[str, Any]) -> str:

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 import slam.cli
 from benchmarks.fuzz.tomlio import dumps
-from slam.kinds.fixed_wing.report import REPORT, tables_markdown
+from slam.kinds.fixed_wing.report import REPORT
 from tests.slam.kinds.fixed_wing.worlds import SHORT_FLIGHT, fw_doc
 
 FILTERS = ["ea-ckf", "ins-ckf", "ins-ukf"]
@@ -35,7 +35,7 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
     assert acc["turns"]["roll"]["max"] > 15.0 and acc["accelerating"]["pitch"]["max"] > 1.0
     bound = math.degrees(math.atan(0.05 / 9.80665))  # steady: |a| below accel_mps2 = 0.05
     assert acc["steady"]["roll"]["max"] < bound and acc["steady"]["pitch"]["max"] < bound
-    md = tables_markdown(s)
+    md = REPORT.markdown(s)
     assert "| CKF (paper) | 4.30 | 4.00 | 2.00 | 0.80 | 0.90 |" in md
     assert "ins-ckf (ours)" in md and "gravity rule, error-free (RMS)" in md
     assert "| roll accel. (°) |" in md

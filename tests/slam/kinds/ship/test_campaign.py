@@ -14,7 +14,7 @@ import numpy as np
 from click.testing import CliRunner, Result
 
 import slam.cli
-from slam.kinds.ship.report import REPORT, ship_tables
+from slam.kinds.ship.report import REPORT
 from slam.kinds.ship.scoring import settle_times
 from tests.slam.kinds.ship import worlds  # noqa: F401  (registers the kind)
 
@@ -62,7 +62,7 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
         assert title in report
     assert "ukf:additive" in res.output and "yaw ss′" in res.output
     assert max(map(len, res.output.split("\n\n")[0].splitlines())) <= 100  # the table
-    assert "| (a) | ukf:additive |" in ship_tables(s)
+    assert "| (a) | ukf:additive |" in REPORT.markdown(s)
 
 
 def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
