@@ -23,7 +23,7 @@ Prints one JSON object with up to three sections:
     landmark distance (raw and after the fit), the final heading σ.
 
 Run ``python -m benchmarks.consistent_slam --runs 20 --workers 2`` (add ``--association nn``,
-``--mode local``, ``--filters a,b``,
+``--mode local``, ``--filters a,b``, ``--noise-scale 0.1``,
 ``--timing``, ``--cost [--cost-reps 3]``, ``--victoria``, ``--no-webmap``); ``--summary PATH``
 reduces the ``summary.json`` of an earlier ``slam run webmap`` instead of running the campaign.
 """
@@ -69,18 +69,27 @@ def reduce_summary(summary: dict[str, Any]) -> dict[str, Any]:
             "mode": summary.get("mode"), "filters": rows}
 
 
-def webmap(runs: int, workers: int, association: str, filters=FILTERS, mode: str = "joint"
-           ) -> dict[str, Any]:
-    """Run the campaign (seed 0) in ``mode`` and reduce it."""
+def webmap(runs: int, workers: int, association: str, filters=FILTERS, mode: str = "joint",
+           noise_scale: float = 1.0) -> dict[str, Any]:
+    """Run the campaign (seed 0) in ``mode`` and reduce it; ``noise_scale`` multiplies the
+    four noise σ (range, bearing, speed, steering: the same scale on the truth's noise and
+    on the filters' models), to separate the problem's nonlinearity from the filters'."""
     from slam.campaign import run_campaign
     from slam.registry import load_world
 
     world = load_world("webmap")
     world = replace(world, filters=replace(world.filters, association=association, mode=mode))
+    if noise_scale != 1.0:
+        k, sen, noi = noise_scale, world.sensor, world.noise
+        world = replace(world, sensor=replace(sen, sigma_range_m=k * sen.sigma_range_m,
+                                              sigma_bearing_rad=k * sen.sigma_bearing_rad),
+                        noise=replace(noi, sigma_speed_mps=k * noi.sigma_speed_mps,
+                                      sigma_steer_rad=k * noi.sigma_steer_rad))
     res = run_campaign(world, filters=list(filters), runs=runs, seed=0, workers=workers)
     out = reduce_summary(res.summary)
     out["association"] = association
     out["mode"] = mode
+    out["noise_scale"] = noise_scale
     return out
 
 
@@ -147,6 +156,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--association", choices=("known", "nn"), default="known")
     ap.add_argument("--mode", choices=("joint", "local"), default="joint")
     ap.add_argument("--filters", default=",".join(FILTERS), help="webmap filters")
+    ap.add_argument("--noise-scale", type=float, default=1.0,
+                    help="multiply webmap's four noise σ (truth and models) by this")
     ap.add_argument("--summary", type=Path, help="reduce this summary.json instead")
     ap.add_argument("--no-webmap", action="store_true")
     ap.add_argument("--timing", action="store_true")
@@ -164,7 +175,7 @@ def main(argv: list[str] | None = None) -> None:
         out["webmap"] = reduce_summary(json.loads(a.summary.read_text()))
     elif not a.no_webmap:
         out["webmap"] = webmap(a.runs, a.workers, a.association, tuple(a.filters.split(",")),
-                               a.mode)
+                               a.mode, a.noise_scale)
     if a.timing:
         out["timing"] = timing()
     if a.cost:
