@@ -45,6 +45,12 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+def _interruptible() -> None:
+    """In the child before ``exec``: Ctrl-C's default action, which a shell gives up for the
+    jobs it starts in the background (they inherit SIGINT ignored, and Python keeps it so)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _slam(tmp_path: Path, runs: int) -> subprocess.Popen:
     world = tmp_path / "small.toml"
     world.write_text(SMALL_WORLD)
@@ -52,7 +58,8 @@ def _slam(tmp_path: Path, runs: int) -> subprocess.Popen:
     return subprocess.Popen([str(SLAM), "run", str(world), "--runs", str(runs), "--workers",
                              "2", "--no-plots", "--filters", "ekf", "--out",
                              str(tmp_path / "out")], cwd=tmp_path, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=_interruptible)
 
 
 def test_ctrl_c_at_one_second_exits_within_two(tmp_path):
