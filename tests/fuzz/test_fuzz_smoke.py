@@ -1,26 +1,33 @@
 """Smoke tests of the fuzz harness (``benchmarks/fuzz``).
 
-A fixed-seed sample of 8 cheap cases runs through the real ``slam`` CLI (about 7 s of CPU);
-the classifier, the TOML writer and the mutators are also tested on their own.
+A fixed-seed sample of 4 cheap cases runs through the real ``slam`` command as the harness
+runs cases (subprocesses, about 4 s of CPU); the issue's three hostile inputs run through the
+same command line in this process and are classified the same way; the classifier, the TOML
+writer and the mutators are also tested on their own.
 ``SLAM_FUZZ_CMD`` (e.g. ``"env PYTHONPATH=/some/checkout .venv/bin/slam"``) picks the CLI
 to run; by default it is the ``slam`` next to the interpreter.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import shlex
+import time
 import tomllib
+import traceback
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import slam.cli
 from benchmarks.fuzz import tomlio
 from benchmarks.fuzz.core import Base, Case
 from benchmarks.fuzz.harness import (
@@ -29,8 +36,10 @@ from benchmarks.fuzz.harness import (
     Limits,
     Outcome,
     classify,
+    command,
     default_slam,
     run_case,
+    write_case,
 )
 from benchmarks.fuzz.mutate import (
     LOG_FAMILIES,
@@ -93,23 +102,52 @@ def _regressions(bailey: Base, log_lines: list[str]) -> list[Case]:
 @pytest.fixture(scope="module")
 def sample(bases: list[Base], log_lines: list[str], tmp_path_factory: pytest.TempPathFactory
            ) -> dict[str, list[Outcome]]:
-    """Run the fixed sample once, two at a time: a known-good world, a world with an
-    unknown key, two mutated cheap worlds, one mutated log and three issue regressions
-    (the long campaigns are `python -m benchmarks.fuzz`)."""
+    """Run the fixed sample once as the harness runs cases (``slam`` subprocesses, two at a
+    time): a known-good world, a world with an unknown key, one mutated cheap world and one
+    mutated log (the long campaigns are `python -m benchmarks.fuzz`)."""
     cheap = [_by_name(bases, "bailey"), _by_name(bases, "star-sensor")]
     good = render(cheap[0], "control", "unmodified")
     doc = json.loads(json.dumps(cheap[0].doc))
     doc["vehicle"]["speed_mpss"] = 3.0
     unknown = render(cheap[0], "control", "unknown key vehicle.speed_mpss", doc)
-    mutated = world_cases(2, 0, cheap, SAMPLE_FAMILIES)
+    mutated = world_cases(1, 0, cheap, SAMPLE_FAMILIES)
     logs = log_cases(1, 0, log_lines, ["log-number"])
-    cases = [good, unknown, *mutated, *logs, *_regressions(cheap[0], log_lines)]
+    cases = [good, unknown, *mutated, *logs]
     work = tmp_path_factory.mktemp("fuzz")
     slam = _slam()
     with ThreadPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(lambda ic: run_case(ic[1], work, slam, LIMITS,
                                                     folder_name=str(ic[0])), enumerate(cases)))
-    return {"control": results[:2], "sample": results[2:5], "regressions": results[5:]}
+    return {"control": results[:2], "sample": results[2:]}
+
+
+def _in_process(case: Case, folder: Path) -> Outcome:
+    """Run ``case`` with the harness's arguments through ``slam.cli.main`` in this process
+    (cwd ``folder``) and classify it as the harness classifies a subprocess: an exception
+    that escapes the command line becomes the traceback it would have printed."""
+    target = write_case(case, folder)
+    out = Path("out")
+    t0 = time.perf_counter()
+    with contextlib.chdir(folder):
+        res = CliRunner().invoke(slam.cli.main, command([], case, target, out))
+    stderr = res.stderr
+    if res.exc_info is not None and not isinstance(res.exc_info[1], SystemExit):
+        stderr += "".join(traceback.format_exception(*res.exc_info))
+    written = sorted(str(p.relative_to(folder)) for p in (folder / out).rglob("*"))
+    names = [target.name, str(target)] if case.target is None else [str(target)]
+    klass, detail = classify(res.exit_code, stderr, written, folder / out / "summary.json",
+                             names)
+    return Outcome(case, klass, res.exit_code, time.perf_counter() - t0, detail,
+                   stderr[-4000:], written)
+
+
+@pytest.fixture(scope="module")
+def regressions(bases: list[Base], log_lines: list[str],
+                tmp_path_factory: pytest.TempPathFactory) -> list[Outcome]:
+    """The issue's three hostile inputs through the same command line, in this process."""
+    work = tmp_path_factory.mktemp("regressions")
+    cases = _regressions(_by_name(bases, "bailey"), log_lines)
+    return [_in_process(c, work / str(i)) for i, c in enumerate(cases)]
 
 
 def _why(o: Outcome) -> str:
@@ -129,9 +167,10 @@ def test_unknown_key_is_rejected(sample: dict[str, list[Outcome]]) -> None:
     assert "speed_mpss" in bad.detail
 
 
-def test_sample_is_classified(sample: dict[str, list[Outcome]]) -> None:
-    outcomes = sample["sample"] + sample["regressions"]
-    assert len(outcomes) == 6
+def test_sample_is_classified(sample: dict[str, list[Outcome]],
+                              regressions: list[Outcome]) -> None:
+    outcomes = sample["sample"] + regressions
+    assert len(outcomes) == 5
     assert all(o.klass in CLASSES for o in outcomes)
     assert all(o.seconds <= LIMITS.seconds + 5 for o in outcomes)
 
@@ -141,8 +180,8 @@ def test_sample_has_no_traceback(sample: dict[str, list[Outcome]]) -> None:
     assert not bad, "\n".join(map(_why, bad))
 
 
-def test_issue_regressions_have_no_traceback(sample: dict[str, list[Outcome]]) -> None:
-    bad = [o for o in sample["regressions"] if o.klass not in GOOD]
+def test_issue_regressions_have_no_traceback(regressions: list[Outcome]) -> None:
+    bad = [o for o in regressions if o.klass not in GOOD]
     assert not bad, "\n".join(map(_why, bad))
 
 
