@@ -140,10 +140,11 @@ def _held(load: Callable[[], Any]) -> int | None:
     return caught[0] if caught else None
 
 
-def _load_kind(kind, caught: dict[str, int]) -> None:
-    """Import the kind's run and report modules (deferred until a world of it is valid)
-    with the signals held back; a signal meanwhile stops the command as it would have."""
-    signum = _held(kind.load)
+def _load_kind(kind, caught: dict[str, int], plots: bool = False) -> None:
+    """Import the kind's run and report modules (deferred until a world of it is valid),
+    and its figure modules (matplotlib) when ``plots``, with the signals held back; a
+    signal meanwhile stops the command as it would have."""
+    signum = _held(lambda: (kind.load(), kind.report.figures() if plots else None))
     if signum is not None:
         caught["signum"] = signum
         raise KeyboardInterrupt
@@ -271,7 +272,7 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
-    _load_kind(kind, caught)
+    _load_kind(kind, caught, plots=not no_plots)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:

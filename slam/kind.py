@@ -44,9 +44,10 @@ class Summarize(Protocol):
 class Deferred:
     """``"package.module:attribute"``, imported when first used.
 
-    A kind's run, summary and report modules pull in SciPy, GTSAM and matplotlib (about a
-    second and a half of start-up), which a command that only validates or lists worlds
-    never needs; the kind names them with a :class:`Deferred` instead of importing them.
+    A kind's run, summary and report modules pull in SciPy and GTSAM (about a second of
+    start-up), which a command that only validates or lists worlds never needs; the kind
+    names them with a :class:`Deferred` instead of importing them.  A kind's report names
+    its figure module the same way, so a run without figures never imports matplotlib.
     Calling it calls the attribute, reading an attribute of it reads the attribute's
     (so ``kind.report.text_table(...)`` works either way); :meth:`Kind.load` imports every
     deferred part at once.

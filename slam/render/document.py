@@ -114,8 +114,8 @@ def report_markdown(result: CampaignResult, kr: KindReport, figures: Sequence[st
     parts += ["## Files", ""]
     parts += [f"- [`{name}`]({name}): {what}" for name, what in report_links(result, kr)]
     parts.append("")
-    captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
+        captions = {n: c for n, (_, c) in kr.figures().items()}
         parts += ["## Figures", ""]
         for f in figures:
             parts += [f"![{f}]({f})", "", f"*{captions.get(f, f)}*", ""]
@@ -177,8 +177,8 @@ def report_html(result: CampaignResult, kr: KindReport, figures: dict[str, bytes
     out.append("<ul>" + "".join(f'<li><a href="{e(quote(name))}"><code>{e(name)}</code></a>: '
                                 f"{e(what)}</li>" for name, what in report_links(result, kr))
                + "</ul>")
-    captions = {n: c for n, (_, c) in kr.figures().items()}
     if figures:
+        captions = {n: c for n, (_, c) in kr.figures().items()}
         out.append("<h2>Figures</h2>")
         for name, png in figures.items():
             data = base64.b64encode(png).decode("ascii")

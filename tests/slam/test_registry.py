@@ -3,6 +3,9 @@ dispatching a world document to its kind."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 
 from slam.kind import Kind
@@ -33,6 +36,22 @@ def test_the_built_in_kinds_are_registered() -> None:
     assert readers == [log_kind()]
     with pytest.raises(WorldError, match="--log"):
         world_from_dict({"kind": log_kind().name}, name="x")
+
+
+def test_only_drawing_a_figure_imports_matplotlib() -> None:
+    """Every kind's run, summary, tables and extra files load without matplotlib (a run
+    with ``--no-plots`` starts about half a second sooner); the figures import it."""
+    code = ("import sys\n"
+            "from slam.registry import KINDS\n"
+            "for kind in KINDS.values():\n"
+            "    kind.load(); kind.report.text_table, kind.report.extra_files\n"
+            "print('before', 'matplotlib' in sys.modules)\n"
+            "for kind in KINDS.values():\n"
+            "    kind.report.figures()\n"
+            "print('after', 'matplotlib' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["before", "False", "after", "True"]
 
 
 def test_every_bundled_world_loads_through_its_kind() -> None:

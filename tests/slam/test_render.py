@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from slam.kinds.planar import figures as planar_figures
 from slam.kinds.planar import report
 from slam.render import output, tables
 from slam.render.provenance import provenance_rows
@@ -94,7 +95,7 @@ def test_failure_mid_way_leaves_old_output(result, tmp_path, monkeypatch):
         drawn.append(path)
         raise RuntimeError("plot failed")
 
-    monkeypatch.setattr(report, "plot_errors_xy", boom)
+    monkeypatch.setattr(planar_figures, "plot_errors_xy", boom)
     with pytest.raises(RuntimeError, match="plot failed"):
         output.write_outputs(result, report.REPORT, out)
     assert drawn and drawn[0].parent != out  # rendering happened in a temp dir

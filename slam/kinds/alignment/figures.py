@@ -22,6 +22,7 @@ import numpy as np
 
 from slam.kinds.alignment.scoring import ARCMIN, AXES
 from slam.render import plotting
+from slam.render.document import captioned
 from slam.render.plotting import plt
 from slam.render.series import run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
@@ -126,3 +127,9 @@ CAPTIONS = {
     "nees.png": "Run-averaged 3-dof misalignment NEES / 3 vs time with its 95 % χ² band "
                 "(the smoother at its keys, where its marginals exist).",
 }
+
+
+def report_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """The report's figures, file name -> (drawing function, caption); the report names
+    this module lazily, so a run without figures never imports matplotlib."""
+    return captioned(figure_writers(), CAPTIONS)

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kinds.alignment.figures import CAPTIONS, figure_writers
+from slam.kind import Deferred
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
 AXES = ("east", "north", "azimuth")
@@ -237,5 +237,5 @@ def text_table(summary: dict[str, Any]) -> str:
 
 
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,
-                    lambda: captioned(figure_writers(), CAPTIONS), text_table)
+                    Deferred("slam.kinds.alignment.figures:report_figures"), text_table)
 """The alignment kind's report."""

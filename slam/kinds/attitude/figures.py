@@ -25,6 +25,7 @@ from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H
 from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
     PANEL_WIDTH,
+    Figure,
     FigureSpec,
     Tracked,
     base_filter,
@@ -32,6 +33,7 @@ from slam.render.figures import (
     differences_figure,
     error_grid_figure,
     estimate_figure,
+    figure_table,
     filters_and_reference,
     rmse_sigma_figure,
 )
@@ -176,3 +178,14 @@ def figure_specs() -> list[FigureSpec]:
                    differences_figure([ROLL_PITCH_YAW, BIAS],
                                       "each filter minus {base} on the same data")),
     ]
+
+
+def report_figures() -> dict[str, tuple[Figure, str]]:
+    """The report's figures, file name -> (drawing function, caption); the report names
+    this module lazily, so a run without figures never imports matplotlib."""
+    return figure_table(figure_specs())
+
+
+def figure_writers() -> dict[str, Figure]:
+    """File name -> function drawing it."""
+    return {s.name: s.draw for s in figure_specs()}

@@ -9,14 +9,11 @@ compact terminal table.  The figures are in :mod:`slam.kinds.attitude.figures`;
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
-from slam.kinds.attitude.figures import figure_specs
+from slam.kind import Deferred
 from slam.kinds.attitude.run import AXES
 from slam.render.document import KindReport, Section
-from slam.render.figures import figure_table
 from slam.render.tables import (
     MISSING,
     anees_cell,
@@ -32,7 +29,7 @@ from slam.render.tables import (
     verdict,
     wrap,
 )
-from slam.results import REFERENCE, CampaignResult
+from slam.results import REFERENCE
 
 _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
@@ -209,16 +206,6 @@ def attitude_sections(summary: dict[str, Any]) -> list[Section]:
     return out
 
 
-def attitude_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
-    """File name -> (function drawing it, caption)."""
-    return figure_table(figure_specs())
-
-
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {s.name: s.draw for s in figure_specs()}
-
-
-REPORT = KindReport("star-sensor attitude campaign", attitude_sections, attitude_figures,
-                    text_table)
+REPORT = KindReport("star-sensor attitude campaign", attitude_sections,
+                    Deferred("slam.kinds.attitude.figures:report_figures"), text_table)
 """The attitude kind's report."""

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from slam.render.output import tum_header, tum_names, tum_text, write_tum
-from slam.render.plotting import EIGHT_COLOURS, estimator_colours, filter_names, run0
+from slam.render.palette import EIGHT_COLOURS, estimator_colours, filter_names, run0
 from slam.results import REFERENCE, CampaignResult
 
 IMU_ONLY = "imu_only"

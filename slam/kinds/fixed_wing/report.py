@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kinds.fixed_wing.figures import figures
+from slam.kind import Deferred
 from slam.render.document import KindReport, Section
 from slam.render.tables import (
     DIVERGED,
@@ -208,5 +208,5 @@ def text_table(s: dict[str, Any]) -> str:
 
 
 REPORT = KindReport("fixed-wing UAV attitude campaign ([Fixed-wing EA-UKF])", sections,
-                    figures, text_table)
+                    Deferred("slam.kinds.fixed_wing.figures:figures"), text_table)
 """The ``fixed-wing`` kind's report."""

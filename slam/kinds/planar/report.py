@@ -12,32 +12,21 @@ trajectory files.
                      trace vs time
     differences.png  each filter minus SRCKF on the same runs
     <name>.tum       run 0's trajectory of every estimator, and ``truth.tum`` (TUM format)
+
+The figures are drawn by :mod:`slam.kinds.planar.figures`, which the report names lazily.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from slam.kinds.planar.map_figure import plot_map
-from slam.render.consistency import NeesSpec, consistency_figure
+from slam.kind import Deferred
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
-from slam.render.figures import (
-    FigureSpec,
-    differences_figure,
-    error_grid_figure,
-    figure_table,
-    map_figure,
-    quoted_position_range,
-    rmse_sigma_figure,
-)
 from slam.render.output import tum_header, tum_names, write_tum
 from slam.render.output import tum_text as tum_lines
-from slam.render.series import Component
 from slam.render.tables import (
     DIVERGED_SHORT,
     ESTIMATOR,
@@ -53,7 +42,6 @@ from slam.render.tables import (
 )
 from slam.results import Array, CampaignResult
 
-DEG = 180.0 / math.pi
 TIME = Column("time/epoch (µs)", value("time_per_step_s", ".1f", 1e6))
 
 RESULTS = slam_table("xy", Column("heading RMSE (deg)", value("heading_rmse_deg", ".2f")),
@@ -110,78 +98,6 @@ def planar_sections(summary: dict[str, Any]) -> list[Section]:
             Section("How to read this", text=HOW_TO_READ)]
 
 
-# --------------------------------------------------------------------------- figures
-
-def _comp(label: str, unit: str, col: int, scale: float = 1.0) -> Component:
-    return Component(label, unit, lambda s: s.err[:, col] * scale,
-                     lambda s: s.sigma[:, col] * scale, "position" if col < 2 else "")
-
-
-def _track(label: str, col: int) -> Component:
-    return Component(label, "m", lambda s: s.err_track[:, col] if s.err_track is not None
-                     else None,
-                     lambda s: s.sig_track[:, col] if s.sig_track is not None else None)
-
-
-X, Y, HEADING = _comp("x", "m", 0), _comp("y", "m", 1), _comp("heading", "deg", 2, DEG)
-HORIZONTAL = Component("horizontal", "m", lambda s: np.hypot(s.err[:, 0], s.err[:, 1]),
-                       lambda s: np.hypot(s.sigma[:, 0], s.sigma[:, 1]), "position")
-POSE_ROWS = [[X, Y, HEADING], [_track("along-track", 0), _track("cross-track", 1),
-                               HORIZONTAL]]
-
-_ERRORS_XY = error_grid_figure([X, Y, HEADING], "vehicle pose error (run 0 with its ±2σ; "
-                               "Monte Carlo envelope)", groups=((0, 1), (2,)),
-                               paper=quoted_position_range)
-
-
-def plot_errors_xy(result: CampaignResult, path: Path) -> None:
-    """``errors_xy.png``: one row per filter, x / y error (m) and heading error (deg) vs
-    time (:func:`~slam.render.figures.error_grid_figure`)."""
-    _ERRORS_XY(result, path)
-
-
-def figure_specs() -> list[FigureSpec]:
-    """The planar report's figures (built at call time, so a replaced function is used)."""
-    return [
-        FigureSpec("map.png", "Run 0: true landmarks, waypoints, true / filtered / smoothed / "
-                   "dead-reckoned paths and the final landmark estimates with 2σ ellipses.",
-                   plot_map),
-        FigureSpec("errors_xy.png", "x and y error (m) and heading error (deg, wrapped) vs "
-                   "time, one row per filter: run 0 with its ±2σ band, the Monte Carlo "
-                   "envelope (min/max over all runs), the smoother's run 0 and the paper's "
-                   "range (dashed) where the paper quotes one.", plot_errors_xy),
-        FigureSpec("rmse_sigma.png", "Monte Carlo RMSE (solid) vs the RMS of each "
-                   "estimator's own σ (dashed) per epoch: x, y, heading; along-track and "
-                   "cross-track (in the true heading's frame) and horizontal position. A "
-                   "consistent filter's two curves coincide. Odometry is left out (see the "
-                   "table).", rmse_sigma_figure(POSE_ROWS, "error vs predicted σ")),
-        FigureSpec("nees.png", "Pose NEES / 3 and NIS / dof per epoch (run averages) "
-                   "against their 95 % bands (dashed: constant band; grey: a band that "
-                   "varies with the number of updates), with the fraction of epochs inside; "
-                   "right: histograms of the per-run time averages (1 = consistent).",
-                   consistency_figure([NeesSpec("pose NEES / 3", 3, lambda s: s.nees)])),
-        FigureSpec("landmarks.png", "The filters' maps per epoch (run averages): RMSE and "
-                   "NEES / 2 of the landmarks in the state (against the band), landmarks "
-                   "in the state, trace of the map covariance; the smoother's final "
-                   "landmark RMSE dashed.", map_figure("the map over time")),
-        FigureSpec("differences.png", "Each filter minus the base filter (SRCKF) on the "
-                   "same runs (truth cancels): RMS over runs per epoch, with the base "
-                   "filter's RMS σ (dotted) for scale.",
-                   differences_figure([[X, Y, HEADING]],
-                                      "each filter minus {base} on the same data")),
-    ]
-
-
-def planar_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
-    """File name -> (function drawing it, caption)."""
-    return figure_table(figure_specs())
-
-
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {s.name: s.draw for s in figure_specs()}
-
-
 # --------------------------------------------------------------------------- TUM
 
 def tum_text(times: Array, poses: Array, header: str = "") -> str:
@@ -214,6 +130,7 @@ def tum_links(result: CampaignResult) -> list[Link]:
              "qx qy qz qw)") for n in tum_names(result)]
 
 
-REPORT = KindReport("planar SLAM campaign", planar_sections, planar_figures, text_table,
+REPORT = KindReport("planar SLAM campaign", planar_sections,
+                    Deferred("slam.kinds.planar.figures:planar_figures"), text_table,
                     write_tum_files, tum_links)
 """The planar SLAM kind's report."""

@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 
 from estimators import wrap_angle
 from slam.kinds.recorded.scoring import rigid_fit
-from slam.render.figures import PANEL_WIDTH, FigureSpec, default_colours
+from slam.render.figures import PANEL_WIDTH, Figure, FigureSpec, default_colours, figure_table
 from slam.render.plotting import (
     BASELINE_COLOUR,
     REFERENCE_COLOUR,
@@ -240,3 +240,9 @@ def figure_specs() -> list[FigureSpec]:
                    "its 95 % band (grey): the filters' only consistency check without truth.",
                    plot_map_state),
     ]
+
+
+def report_figures() -> dict[str, tuple[Figure, str]]:
+    """The report's figures, file name -> (drawing function, caption); the report names
+    this module lazily, so a run without figures never imports matplotlib."""
+    return figure_table(figure_specs())

@@ -14,10 +14,9 @@ from typing import Any
 
 import numpy as np
 
+from slam.kind import Deferred
 from slam.kinds.planar.report import tum_text
-from slam.kinds.recorded.figures import figure_specs
 from slam.render.document import KindReport, Link, Section
-from slam.render.figures import figure_table
 from slam.render.output import write_tum
 from slam.render.tables import (
     MISSING,
@@ -111,6 +110,7 @@ def log_links(result: CampaignResult) -> list[Link]:
     return [(f"{n}.tum", f"{n}'s trajectory (TUM; time = pose index)") for n in _tracks(result)]
 
 
-REPORT = KindReport("recorded-log run", _sections, lambda: figure_table(figure_specs()),
-                    log_table, write_log_tum, log_links)
+REPORT = KindReport("recorded-log run", _sections,
+                    Deferred("slam.kinds.recorded.figures:report_figures"), log_table,
+                    write_log_tum, log_links)
 """The recorded-log kind's report."""

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from slam.kinds.ship.scoring import ARCMIN, AXES
+from slam.render.document import captioned
 from slam.render.plotting import (
     ErrorGrid,
     ErrorPanel,
@@ -134,3 +135,9 @@ CAPTIONS = {
     "nees.png": "Run-averaged NEES / 6 (attitude and drift) vs time with its 95 % χ² band "
                 "(line styles as in convergence.png).",
 }
+
+
+def report_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """The report's figures, file name -> (drawing function, caption); the report names
+    this module lazily, so a run without figures never imports matplotlib."""
+    return captioned(figure_writers(), CAPTIONS)

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kinds.ship.figures import CAPTIONS, figure_writers
+from slam.kind import Deferred
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
 RULES = {"ekf": "linearised (MEKF)", "ukf": "unscented α=1 κ=0", "cdkf": "central diff. h=√3",
@@ -265,5 +265,5 @@ def text_table(summary: dict[str, Any]) -> str:
 
 
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,
-                    lambda: captioned(figure_writers(), CAPTIONS), text_table)
+                    Deferred("slam.kinds.ship.figures:report_figures"), text_table)
 """The ship kind's report."""

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from slam.kinds.spinning.figures import figures
+from slam.kind import Deferred
 from slam.render import tables
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
@@ -282,5 +282,6 @@ def text_table(s: dict[str, Any]) -> str:
     return "\n".join([tables.plain_table(header, rows), *(tables.wrap(n) for n in notes if n)])
 
 
-REPORT = KindReport("spinning-projectile attitude campaign", sections, figures, text_table)
+REPORT = KindReport("spinning-projectile attitude campaign", sections,
+                    Deferred("slam.kinds.spinning.figures:figures"), text_table)
 """The ``spinning`` kind's report."""

@@ -29,7 +29,8 @@ def test_convergence_time() -> None:
 def test_small_campaign_end_to_end(attitude_result) -> None:
     """The session's small campaign (``attitude_result``): summary, tables, report sections
     (its figures are checked with every kind's in ``tests/slam/test_reports.py``)."""
-    from slam.kinds.attitude.report import REPORT, attitude_tables, figure_writers
+    from slam.kinds.attitude.figures import figure_writers
+    from slam.kinds.attitude.report import REPORT, attitude_tables
 
     result = attitude_result
     w = result.world
