@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kind import Deferred
+from slam.kind import figures_of
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
 AXES = ("east", "north", "azimuth")
@@ -236,22 +236,6 @@ def text_table(summary: dict[str, Any]) -> str:
                       *(tables.wrap(n) for n in notes if n)])
 
 
-CAPTIONS = {
-    "misalignment_errors.png": "The paper's Fig. 1 re-drawn (and the azimuth): East, North "
-                               "and azimuth misalignment error (′) vs time per filter - run 0 "
-                               "with its ±2σ, the Monte Carlo envelope, the smoother's run 0 "
-                               "(keys 1 s apart, joined) and the paper's H∞ values (dashed). "
-                               "East/North y range set after 10 s.",
-    "rms.png": "Monte Carlo RMS of the misalignment error vs time (log scale), every "
-               "estimator; dotted: the level limit ∇/g from the world's accelerometer bias.",
-    "nees.png": "Run-averaged 3-dof misalignment NEES / 3 vs time with its 95 % χ² band "
-                "(the smoother at its keys, where its marginals exist).",
-}
-"""The report's figure captions (the figures are drawn by :mod:`slam.kinds.alignment.figures`)."""
-
-_WRITERS = Deferred("slam.kinds.alignment.figures:figure_writers")
-"""The figure module, imported only when figures are drawn (matplotlib)."""
-
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,
-                    lambda: captioned(_WRITERS(), CAPTIONS), text_table)
+                    figures_of("slam.kinds.alignment.figures"), text_table)
 """The alignment kind's report."""

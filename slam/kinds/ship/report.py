@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kind import Deferred
+from slam.kind import figures_of
 from slam.render import tables
-from slam.render.document import KindReport, Section, captioned
+from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
 RULES = {"ekf": "linearised (MEKF)", "ukf": "unscented α=1 κ=0", "cdkf": "central diff. h=√3",
@@ -264,24 +264,6 @@ def text_table(summary: dict[str, Any]) -> str:
     return "\n".join([*parts, "", *(tables.wrap(n) for n in notes if n)])
 
 
-CAPTIONS = {
-    "attitude_errors.png": "The paper's Fig. 1-3 re-drawn: roll, pitch and yaw error (′) vs "
-                           "time per filter - run 0 with its ±2σ, the Monte Carlo envelope, "
-                           "the smoother's run 0 and the paper's bounds (dashed). The y range "
-                           "is set after 30 s; the initial transient is off the scale (see "
-                           "convergence.png).",
-    "convergence.png": "Median |error| over the runs vs time (log scale), every estimator "
-                       "(solid: pseudo-observation Z = G q, dashed: vector measurement "
-                       "B = C(q)ᵀR; estimators that coincide are drawn with decreasing "
-                       "widths) and the smoother; dotted: the 10′ bound.",
-    "nees.png": "Run-averaged NEES / 6 (attitude and drift) vs time with its 95 % χ² band "
-                "(line styles as in convergence.png).",
-}
-"""The report's figure captions (the figures are drawn by :mod:`slam.kinds.ship.figures`)."""
-
-_WRITERS = Deferred("slam.kinds.ship.figures:figure_writers")
-"""The figure module, imported only when figures are drawn (matplotlib)."""
-
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,
-                    lambda: captioned(_WRITERS(), CAPTIONS), text_table)
+                    figures_of("slam.kinds.ship.figures"), text_table)
 """The ship kind's report."""
