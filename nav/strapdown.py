@@ -176,21 +176,15 @@ def dcm_unit(q: Array) -> Array:
     w, x, y, z = q.tolist() if one else (q[..., 0], q[..., 1], q[..., 2], q[..., 3])
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    rows = (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy),
+            2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx),
+            2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy))
     if one:
-        return np.array([[1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
-                         [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
-                         [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)]])
-    C = np.empty(q.shape[:-1] + (3, 3))
-    C[..., 0, 0] = 1.0 - 2.0 * (yy + zz)
-    C[..., 0, 1] = 2.0 * (xy - wz)
-    C[..., 0, 2] = 2.0 * (xz + wy)
-    C[..., 1, 0] = 2.0 * (xy + wz)
-    C[..., 1, 1] = 1.0 - 2.0 * (xx + zz)
-    C[..., 1, 2] = 2.0 * (yz - wx)
-    C[..., 2, 0] = 2.0 * (xz - wy)
-    C[..., 2, 1] = 2.0 * (yz + wx)
-    C[..., 2, 2] = 1.0 - 2.0 * (xx + yy)
-    return C
+        return np.array(rows).reshape(3, 3)
+    C = np.empty(q.shape[:-1] + (9,))
+    for k, entry in enumerate(rows):
+        C[..., k] = entry
+    return C.reshape(q.shape[:-1] + (3, 3))
 
 
 def _apply_gammas(phi: Array, f: Array) -> tuple[Array, Array]:
