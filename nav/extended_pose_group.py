@@ -379,13 +379,9 @@ class ExtendedPoseGroup(WorldChartGroup):
         if self.side == "right":   # rows u: ∓[u]x ξ_θ, ξ_θ the rotation rows of A or out
             th = R @ A[6:9] if inverse else R.T @ A[6:9]
             out[6:9] = th
-            corr = self._skews(x) @ (th if inverse else A[6:9])
-            if inverse:
-                out[:6] += corr[:6]
-                out[s:] += corr[6:]
-            else:
-                out[:6] -= corr[:6]
-                out[s:] -= corr[6:]
+            corr = self._skews(x) @ (th if inverse else -A[6:9])
+            out[:6] += corr[:6]
+            out[s:] += corr[6:]
             return out
         # left: δu = R ξ_u; the columns of A (a vector A: itself) as rows
         self._put(out.T, self._vectors(A.T, s) @ (R if inverse else R.T), s)
