@@ -180,7 +180,7 @@ def figure_specs() -> list[FigureSpec]:
     ]
 
 
-def report_figures() -> dict[str, tuple[Figure, str]]:
+def figures() -> dict[str, tuple[Figure, str]]:
     """The report's figures, file name -> (drawing function, caption); the report names
     this module lazily, so a run without figures never imports matplotlib."""
     return figure_table(figure_specs())

@@ -207,5 +207,5 @@ def attitude_sections(summary: dict[str, Any]) -> list[Section]:
 
 
 REPORT = KindReport("star-sensor attitude campaign", attitude_sections,
-                    Deferred("slam.kinds.attitude.figures:report_figures"), text_table)
+                    Deferred("slam.kinds.attitude.figures:figures"), text_table)
 """The attitude kind's report."""

@@ -209,16 +209,7 @@ def figure_specs() -> list[FigureSpec]:
     return own + shared_specs() + tail
 
 
-def drone_figure_table() -> dict[str, tuple[Any, str]]:
+def figures() -> dict[str, tuple[Any, str]]:
     """File name -> (function drawing it, caption), for
-    :class:`~slam.render.document.KindReport`."""
+    :class:`~slam.render.document.KindReport` (named lazily by the report)."""
     return figure_table(figure_specs())
-
-
-def drone_figures(result: CampaignResult, out_dir: str | Path) -> list[str]:
-    """Draw every PNG figure into ``out_dir``; returns the file names."""
-    out_dir = Path(out_dir)
-    specs = figure_specs()
-    for spec in specs:
-        spec.draw(result, out_dir / spec.name)
-    return [spec.name for spec in specs]

@@ -180,6 +180,6 @@ def drone_links(result: CampaignResult) -> list[Link]:
 
 
 REPORT = KindReport("quaternion SINS/SLAM campaign", drone_sections,
-                    Deferred("slam.kinds.drone.figures:drone_figure_table"),
+                    Deferred("slam.kinds.drone.figures:figures"),
                     drone_text_table, drone_extra_files, drone_links)
 

@@ -89,11 +89,7 @@ def figure_specs() -> list[FigureSpec]:
     ]
 
 
-def planar_figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
-    """File name -> (function drawing it, caption)."""
+def figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """File name -> (function drawing it, caption), for
+    :class:`~slam.render.document.KindReport` (named lazily by the report)."""
     return figure_table(figure_specs())
-
-
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {s.name: s.draw for s in figure_specs()}

@@ -131,6 +131,6 @@ def tum_links(result: CampaignResult) -> list[Link]:
 
 
 REPORT = KindReport("planar SLAM campaign", planar_sections,
-                    Deferred("slam.kinds.planar.figures:planar_figures"), text_table,
+                    Deferred("slam.kinds.planar.figures:figures"), text_table,
                     write_tum_files, tum_links)
 """The planar SLAM kind's report."""

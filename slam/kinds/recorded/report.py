@@ -111,6 +111,6 @@ def log_links(result: CampaignResult) -> list[Link]:
 
 
 REPORT = KindReport("recorded-log run", _sections,
-                    Deferred("slam.kinds.recorded.figures:report_figures"), log_table,
+                    Deferred("slam.kinds.recorded.figures:figures"), log_table,
                     write_log_tum, log_links)
 """The recorded-log kind's report."""
