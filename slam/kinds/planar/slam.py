@@ -5,6 +5,7 @@ filter run, and the odometry-only baseline."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache, partial
 
 import numpy as np
 
@@ -118,14 +119,14 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
     """
     control_cov = noise_scale * log.control_cov
     obs_cov = noise_scale * log.obs_cov
-    motions: dict[int, Transition] = {}
     v = PlanarVariant.of(variant, np.asarray(log.x0, dtype=float))
 
+    @cache
+    def steps_model(n: int) -> Transition:  # one per epoch length, built once
+        return v.motion_model(motion_model(log.dt, log.wheelbase, control_cov, n))
+
     def motion(k0: int, k1: int, b: Belief) -> tuple[Transition, Array]:
-        n = k1 - k0
-        if n not in motions:
-            motions[n] = v.motion_model(motion_model(log.dt, log.wheelbase, control_cov, n))
-        return v.motion(motions[n], b, log.controls[k0:k1])
+        return v.motion(steps_model(k1 - k0), b, log.controls[k0:k1])
 
     def observe(slots: Array, index: Array):
         return v.observation(observation_model(slots, obs_cov), slots)
@@ -183,14 +184,12 @@ def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array, str | No
     def record(e: int, b: Belief) -> None:
         poses[e], covs[e] = b.mean, b.cov
 
-    motions: dict[int, Transition] = {}  # one model per epoch length, as the filters keep
+    # one model per epoch length, built once, as the filters keep them
+    steps_model = cache(partial(motion_model, log.dt, log.wheelbase, log.control_cov))
 
     def transition(e: int, b: Belief) -> tuple[Transition, Array]:
         k0, k1 = int(steps[e - 1]), int(steps[e])
-        n = k1 - k0
-        if n not in motions:
-            motions[n] = motion_model(log.dt, log.wheelbase, log.control_cov, n)
-        return motions[n], log.controls[k0:k1]
+        return steps_model(k1 - k0), log.controls[k0:k1]
 
     b0 = Gaussian(np.asarray(log.x0, dtype=float), np.asarray(log.P0, dtype=float),
                   state_space(0))
