@@ -78,7 +78,9 @@ def _so3_mean(Rs: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _propagate_dcm(R: np.ndarray, b: np.ndarray, gyro: np.ndarray, dt: float) -> np.ndarray:
-    for w in gyro:  # sequential, sample by sample
+    """Rotations ``R`` (..., 3, 3) with biases ``b`` (..., 3) through the gyro samples,
+    sequentially, sample by sample (all rotations at once)."""
+    for w in gyro:
         R = R @ _rodrigues((w - b) * dt)
     return R
 
@@ -110,8 +112,7 @@ def dcm_ckf(log, x0, P0, Q, sigma):
     out.append((R, b, P))
     for j in range(1, log.n_star):
         Rs, bs, _ = points(R, b, P)
-        Ys = np.stack([_propagate_dcm(Ri, bi, log.gyro_block(j - 1), log.dt)
-                       for Ri, bi in zip(Rs, bs)])
+        Ys = _propagate_dcm(Rs, bs, log.gyro_block(j - 1), log.dt)
         R = _so3_mean(Ys, wts)
         b = wts @ bs
         d = np.hstack([_so3_log(R.T @ Ys), bs - b])
