@@ -10,9 +10,18 @@ package there would shadow the real ``nav``).  Shared helpers are imported as
 repository root on ``sys.path`` for that, so no ``pythonpath`` setting is needed.
 """
 
+import gc
 import os
 
 # one BLAS thread per test process keeps timings and rounding reproducible
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+
+
+def pytest_collection_finish(session) -> None:
+    """Move what collection imported (numpy, scipy, gtsam, the project, hypothesis) out of
+    the garbage collector's reach: its full collections then walk only what the tests
+    create (about half of their 5 s over the suite)."""
+    gc.collect()
+    gc.freeze()
