@@ -1,9 +1,9 @@
 """Smoke tests of the fuzz harness (``benchmarks/fuzz``).
 
-A fixed-seed sample of 4 cheap cases runs through the real ``slam`` command as the harness
-runs cases (subprocesses, about 4 s of CPU); the issue's three hostile inputs run through the
-same command line in this process and are classified the same way; the classifier, the TOML
-writer and the mutators are also tested on their own.
+A fixed-seed sample of 4 cheap cases: two run through the real ``slam`` command as the
+harness runs cases (subprocesses, about 2 s of CPU), two - and the issue's three hostile
+inputs - through the same command line in this process, classified the same way; the
+classifier, the TOML writer and the mutators are also tested on their own.
 ``SLAM_FUZZ_CMD`` (e.g. ``"env PYTHONPATH=/some/checkout .venv/bin/slam"``) picks the CLI
 to run; by default it is the ``slam`` next to the interpreter.
 """
@@ -99,28 +99,6 @@ def _regressions(bailey: Base, log_lines: list[str]) -> list[Case]:
                  ("\n".join(lines) + "\n").encode())]
 
 
-@pytest.fixture(scope="module")
-def sample(bases: list[Base], log_lines: list[str], tmp_path_factory: pytest.TempPathFactory
-           ) -> dict[str, list[Outcome]]:
-    """Run the fixed sample once as the harness runs cases (``slam`` subprocesses, two at a
-    time): a known-good world, a world with an unknown key, one mutated cheap world and one
-    mutated log (the long campaigns are `python -m benchmarks.fuzz`)."""
-    cheap = [_by_name(bases, "bailey"), _by_name(bases, "star-sensor")]
-    good = render(cheap[0], "control", "unmodified")
-    doc = json.loads(json.dumps(cheap[0].doc))
-    doc["vehicle"]["speed_mpss"] = 3.0
-    unknown = render(cheap[0], "control", "unknown key vehicle.speed_mpss", doc)
-    mutated = world_cases(1, 0, cheap, SAMPLE_FAMILIES)
-    logs = log_cases(1, 0, log_lines, ["log-number"])
-    cases = [good, unknown, *mutated, *logs]
-    work = tmp_path_factory.mktemp("fuzz")
-    slam = _slam()
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        results = list(pool.map(lambda ic: run_case(ic[1], work, slam, LIMITS,
-                                                    folder_name=str(ic[0])), enumerate(cases)))
-    return {"control": results[:2], "sample": results[2:]}
-
-
 def _in_process(case: Case, folder: Path) -> Outcome:
     """Run ``case`` with the harness's arguments through ``slam.cli.main`` in this process
     (cwd ``folder``) and classify it as the harness classifies a subprocess: an exception
@@ -139,6 +117,30 @@ def _in_process(case: Case, folder: Path) -> Outcome:
                              names)
     return Outcome(case, klass, res.exit_code, time.perf_counter() - t0, detail,
                    stderr[-4000:], written)
+
+
+@pytest.fixture(scope="module")
+def sample(bases: list[Base], log_lines: list[str], tmp_path_factory: pytest.TempPathFactory
+           ) -> dict[str, list[Outcome]]:
+    """Run the fixed sample once: a known-good world and one mutated cheap world as the
+    harness runs cases (``slam`` subprocesses, two at a time), a world with an unknown key
+    and one mutated log through the same command line in this process (the long campaigns
+    are `python -m benchmarks.fuzz`)."""
+    cheap = [_by_name(bases, "bailey"), _by_name(bases, "star-sensor")]
+    good = render(cheap[0], "control", "unmodified")
+    doc = json.loads(json.dumps(cheap[0].doc))
+    doc["vehicle"]["speed_mpss"] = 3.0
+    unknown = render(cheap[0], "control", "unknown key vehicle.speed_mpss", doc)
+    mutated = world_cases(1, 0, cheap, SAMPLE_FAMILIES)
+    logs = log_cases(1, 0, log_lines, ["log-number"])
+    work = tmp_path_factory.mktemp("fuzz")
+    slam = _slam()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        spawned = list(pool.map(lambda ic: run_case(ic[1], work, slam, LIMITS,
+                                                    folder_name=str(ic[0])),
+                                enumerate([good, *mutated])))
+    here = [_in_process(c, work / f"in-{i}") for i, c in enumerate([unknown, *logs])]
+    return {"control": [spawned[0], here[0]], "sample": [*spawned[1:], *here[1:]]}
 
 
 @pytest.fixture(scope="module")
