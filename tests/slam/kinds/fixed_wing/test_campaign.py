@@ -17,7 +17,7 @@ FILTERS = ["ea-ckf", "ins-ckf", "ins-ukf"]
 
 
 def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
-    doc = fw_doc(**{**SHORT_FLIGHT, "duration_s": 20.0}, runs=1, **{"filters.names": FILTERS})
+    doc = fw_doc(**{**SHORT_FLIGHT, "duration_s": 20.0}, runs=2, **{"filters.names": FILTERS})
     path = tmp_path / "short-fw.toml"
     path.write_text(dumps(doc), encoding="utf-8")
     out = tmp_path / "out"
@@ -25,7 +25,7 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
                                              str(out)])
     assert res.exit_code == 0, res.output
     s = json.loads((out / "summary.json").read_text(encoding="utf-8"))
-    assert s["kind"] == "fixed-wing" and s["runs"] == 1 and list(s["filters"]) == FILTERS
+    assert s["kind"] == "fixed-wing" and s["runs"] == 2 and list(s["filters"]) == FILTERS
     for name, e in [*s["filters"].items(), ("gtsam", s["reference"]["gtsam"])]:
         assert e["diverged_runs"] == 0, (name, e.get("failures"))
         assert set(e["table1"]) >= {"heading_deg"} and 0.0 < e["anees"]
