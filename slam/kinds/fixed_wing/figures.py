@@ -18,7 +18,7 @@ import numpy as np
 
 from slam.render.document import Figure
 from slam.render.figures import FigureSpec, figure_table
-from slam.render.plotting import estimator_colours, plt, save, titled
+from slam.render.plotting import estimator_colours, inch_layout, plt, save, titled
 from slam.render.series import good_scores
 from slam.results import REFERENCE, CampaignResult
 from slam.scoring import anees_band
@@ -71,7 +71,7 @@ def _grid_figure(result: CampaignResult, path: Path, names: list[str],
     for ax in axes[-1]:
         ax.set_xlabel("time (s)", fontsize=8)
     fig.suptitle(titled(result, what), fontsize=10)
-    fig.tight_layout()
+    inch_layout(fig, *axes.shape, left=0.7, top=0.55, bottom=0.45, wgap=0.7, hgap=0.4)
     save(fig, path)
 
 
@@ -116,12 +116,13 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
                                   "INS filters and smoother: 9-dof [p, v, θ] NEES / 9")):
         ax.set_title(what, fontsize=9)
         ax.set_xlabel("time (s)", fontsize=8)
+        ax.set_ylabel("NEES / dof", fontsize=8)
         ax.grid(True, lw=0.3, alpha=0.5)
         if ax.lines:
             ax.legend(fontsize=7)
     fig.suptitle(titled(result, "run-averaged NEES / dof and its 95 % band (dashed)"),
                  fontsize=10)
-    fig.tight_layout()
+    inch_layout(fig, 1, 2, left=0.8, top=0.6, bottom=0.5, wgap=0.95)
     save(fig, path)
 
 
