@@ -203,13 +203,14 @@ class SlamGroup(WorldChartGroup):
         A = np.asarray(A, dtype=float)
         x = np.asarray(x, dtype=float)
         if self.side == "right":   # rows a_x, a_y += ∓ (J q) A_φ for q = p, l_i
-            out = A.copy()
             sign = -1.0 if inverse else 1.0
-            r = A[2]
-            out[0] += (-sign * x[1]) * r
-            out[1] += (sign * x[0]) * r
-            out[3::2] += np.multiply.outer(-sign * x[4::2], r)
-            out[4::2] += np.multiply.outer(sign * x[3::2], r)
+            c = np.empty(x.shape[0])   # ±a: one rank-one update of every row at once
+            c[0], c[1], c[2] = -sign * x[1], sign * x[0], 0.0
+            c[3::2] = -sign * x[4::2]
+            c[4::2] = sign * x[3::2]
+            out = np.multiply.outer(c, A[2])
+            out += A
+            out[2] = A[2]   # the heading row itself is unchanged (exactly, even -0.0)
             return out
         phi = -x[2] if inverse else x[2]
         c, s = np.cos(phi), np.sin(phi)
