@@ -75,7 +75,9 @@ def plot_rms(result: CampaignResult, path: Path) -> None:
     """``rms.png`` (module docstring)."""
     t = plotting.run0(result).times
     names = _names(result)
-    fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), layout="constrained")
+    fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6))
+    plotting.inch_layout(fig, 1, 3, left=0.75, top=0.55, bottom=0.55 + 0.18 * -(-len(names) // 6),
+                         wgap=0.75)
 
     def rms(name: str) -> Array | None:
         return run_statistic(result, name, lambda e: np.sqrt(np.nanmean(e**2, axis=0)) / ARCMIN)
@@ -92,7 +94,8 @@ def plot_rms(result: CampaignResult, path: Path) -> None:
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
     """``nees.png`` (module docstring)."""
-    fig, ax = plt.subplots(figsize=(10.0, 4.8), layout="constrained")
+    fig, ax = plt.subplots(figsize=(10.0, 4.8))
+    plotting.inch_layout(fig, 1, 1, left=0.75, top=0.35, bottom=0.55)
     t = plotting.run0(result).times
     names = _names(result)
     colours = plotting.estimator_colours(names)

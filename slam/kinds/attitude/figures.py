@@ -39,6 +39,7 @@ from slam.render.figures import (
 )
 from slam.render.plotting import (
     good_scores,
+    inch_layout,
     plt,
     run0,
     save,
@@ -100,7 +101,9 @@ def plot_convergence(result: CampaignResult, path) -> None:
     prior_sd = math.sqrt(3.0 * fs.initial_attitude_var_rad2) / ARCSEC
     zoom = t <= t[0] + max(min(20.0, 0.1 * (t[-1] - t[0])), 2.0)
     fig, axes = plt.subplots(1, 2, figsize=(PANEL_WIDTH, 4.6), width_ratios=(2.0, 1.0),
-                             sharey=True, layout="constrained")
+                             sharey=True)
+    inch_layout(fig, 1, 2, left=0.8, top=0.55, bottom=0.55 + 0.18 * -(-(len(names) + 5) // 4),
+                wgap=0.45)
     for ax, w in zip(axes, (np.ones_like(zoom), zoom)):
         for s in good_scores(result, base):
             ax.plot(t[w], np.linalg.norm(s.err_body, axis=1)[w] / ARCSEC, color="0.78", lw=0.5)

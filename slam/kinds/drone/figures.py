@@ -31,7 +31,7 @@ from slam.render.figures import (
     quoted_position_range,
     rmse_sigma_figure,
 )
-from slam.render.plotting import filter_names, good_scores, plt, run0, save, titled
+from slam.render.plotting import filter_names, good_scores, inch_layout, plt, run0, save, titled
 from slam.render.series import Component, column
 from slam.results import REFERENCE, CampaignResult
 
@@ -126,7 +126,8 @@ def plot_drift(result: CampaignResult, path: Path) -> None:
     first = run0(result)
     colours = drone_colours(result)
     t = first.times
-    fig, ax = plt.subplots(figsize=(10.5, 4.6), layout="constrained")
+    fig, ax = plt.subplots(figsize=(10.5, 4.6))
+    inch_layout(fig, 1, 1, left=0.75, top=0.3, bottom=0.5)
     for name in [IMU_ONLY, *filter_names(result), REFERENCE]:
         scores = good_scores(result, name)
         if not scores:
@@ -162,7 +163,8 @@ def plot_view3d(result: CampaignResult, path: Path) -> None:
     gy = np.linspace(ymin, ymax, 41)
     X, Y = np.meshgrid(gx, gy)
     Z = terrain.height(np.stack([X, Y], axis=-1))
-    fig = plt.figure(figsize=(10.5, 8.0), layout="constrained")
+    fig = plt.figure(figsize=(10.5, 8.0))
+    inch_layout(fig, 1, 1, left=0.1, right=0.1, top=0.3, bottom=0.0)
     ax = fig.add_subplot(projection="3d")
     ax.plot_surface(X, Y, Z, cmap="YlGn_r", alpha=0.45, linewidth=0, antialiased=True)
     truth = first.truth

@@ -17,6 +17,7 @@ from slam.render.plotting import (
     REFERENCE_COLOUR,
     covariance_ellipse,
     filter_names,
+    inch_layout,
     plt,
     run0,
     save,
@@ -84,8 +85,9 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     on top of the true landmarks)."""
     first, world = run0(result), result.world
     colours = default_colours(result)
-    fig = plt.figure(figsize=(11.0, 7.2), layout="constrained")
+    fig = plt.figure(figsize=(11.0, 7.2))
     grid = fig.add_gridspec(2, 2, width_ratios=(3.0, 1.2))
+    inch_layout(fig, 2, 2, grid=grid, left=0.75, top=0.3, bottom=0.5, wgap=0.85, hgap=0.45)
     ax = fig.add_subplot(grid[:, 0])
     xmin, xmax, ymin, ymax = world.map.bounds_m
     ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,

@@ -26,6 +26,7 @@ from slam.render.plotting import (
     BASELINE_COLOUR,
     REFERENCE_COLOUR,
     filter_names,
+    inch_layout,
     plt,
     readable_log_axis,
     save,
@@ -57,7 +58,8 @@ def _common(track, ref) -> tuple[np.ndarray, np.ndarray]:
 def plot_trajectories(result: CampaignResult, path) -> None:
     """The smoother's (dashed), filters' and odometry's (dotted) paths and final maps."""
     tracks, col = _tracks(result), default_colours(result)
-    fig, ax = plt.subplots(figsize=(PANEL_WIDTH, 8.0), layout="constrained")
+    fig, ax = plt.subplots(figsize=(PANEL_WIDTH, 8.0))
+    inch_layout(fig, 1, 1, left=0.75, top=0.3, bottom=0.5)
     odo = tracks.get(ODOMETRY)
     if odo is not None:
         ax.plot(odo.poses[:, 0], odo.poses[:, 1], color=BASELINE_COLOUR, lw=0.8, ls=":",
@@ -101,7 +103,8 @@ def plot_aligned_map(result: CampaignResult, path) -> None:
     best rigid rotation + translation (right); grey lines join matching landmarks."""
     tracks, col = _tracks(result), default_colours(result)
     ref = tracks.get(REFERENCE)
-    fig, axes = plt.subplots(1, 2, figsize=(PANEL_WIDTH, 6.0), layout="constrained")
+    fig, axes = plt.subplots(1, 2, figsize=(PANEL_WIDTH, 6.0))
+    inch_layout(fig, 1, 2, left=0.75, top=0.6, bottom=0.55, wgap=0.85)
     for name in _filters(result) if ref is not None else []:
         a, b = _common(tracks[name], ref)
         A, B = tracks[name].landmarks[a], ref.landmarks[b]
@@ -135,8 +138,8 @@ def plot_pose_diff(result: CampaignResult, path) -> None:
     the filter's own ±2σ (the smoother's own uncertainty is not drawn)."""
     tracks, col = _tracks(result), default_colours(result)
     ref = tracks.get(REFERENCE)
-    fig, (ap, ah) = plt.subplots(2, 1, figsize=(PANEL_WIDTH, 6.4), sharex=True,
-                                 layout="constrained")
+    fig, (ap, ah) = plt.subplots(2, 1, figsize=(PANEL_WIDTH, 6.4), sharex=True)
+    inch_layout(fig, 2, 1, left=0.75, top=0.35, bottom=0.55, hgap=0.15)
     for name in _filters(result) if ref is not None else []:
         tr = tracks[name]
         k = tr.steps.astype(int)
@@ -165,8 +168,9 @@ def plot_map_state(result: CampaignResult, path) -> None:
     """Landmarks in the state, the trace of the map covariance and the NIS / dof over
     windows of :data:`WINDOW` updates against its 95 % band."""
     tracks, col = _tracks(result), default_colours(result)
-    fig, axes = plt.subplots(3, 1, figsize=(PANEL_WIDTH, 8.4), sharex=True,
-                             layout="constrained")
+    fig, axes = plt.subplots(3, 1, figsize=(PANEL_WIDTH, 8.4), sharex=True)
+    legend_rows = -(-(len(_filters(result)) + 1) // 2)  # the NIS legend below the axes
+    inch_layout(fig, 3, 1, left=0.75, top=0.35, bottom=0.65 + 0.21 * legend_rows, hgap=0.15)
     for name in _filters(result):
         tr = tracks[name]
         k = tr.steps.astype(int)

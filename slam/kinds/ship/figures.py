@@ -30,6 +30,7 @@ from slam.render.plotting import (
     estimator_colours,
     estimator_lines,
     good_scores,
+    inch_layout,
     log_time_panels,
     nees_band_axes,
     plt,
@@ -93,7 +94,9 @@ def _lines(result: CampaignResult, axes: Any, series: Callable[[str], Array | No
 
 def plot_convergence(result: CampaignResult, path: Path) -> None:
     """``convergence.png`` (module docstring)."""
-    fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), sharey=True, layout="constrained")
+    fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), sharey=True)
+    legend_rows = -(-len(_names(result)) // 5)
+    inch_layout(fig, 1, 3, left=0.75, top=0.55, bottom=0.55 + 0.18 * legend_rows, wgap=0.3)
     _lines(result, axes, lambda n: run_statistic(
         result, n, lambda e: np.nanmedian(np.abs(e), axis=0) / ARCMIN))
     bound = result.summary.get("converge_bound_arcmin")
@@ -104,7 +107,8 @@ def plot_convergence(result: CampaignResult, path: Path) -> None:
 
 def plot_nees(result: CampaignResult, path: Path) -> None:
     """``nees.png`` (module docstring)."""
-    fig, ax = plt.subplots(figsize=(10.0, 4.8), layout="constrained")
+    fig, ax = plt.subplots(figsize=(10.0, 4.8))
+    inch_layout(fig, 1, 1, left=0.75, top=0.35, bottom=0.55)
 
     def average(name: str) -> Array | None:
         scores = good_scores(result, name)

@@ -38,6 +38,7 @@ from slam.render.plotting import (
     envelope,
     estimator_colours,
     filter_names,
+    inch_layout,
     plt,
     run0,
     save,
@@ -67,8 +68,11 @@ def plot_roll(result: CampaignResult, path: Path) -> None:
     blind = blind_mask(result.world, first.truth[:, 0], first.truth[:, 1])
     names = [n for n in [*filter_names(result), REFERENCE] if n in first.scores]
     colours = estimator_colours(names)
-    fig, axes = plt.subplots(len(names), 2, figsize=(11.0, 1.2 + 1.7 * len(names)),
-                             sharex=True, squeeze=False, layout="constrained")
+    height = 1.2 + 1.7 * len(names)
+    fig, axes = plt.subplots(len(names), 2, figsize=(11.0, height), sharex=True, squeeze=False)
+    # the suptitle sits 2 % of the height below the top edge, the panel titles below it
+    inch_layout(fig, len(names), 2, left=0.75, top=0.42 + 0.02 * height, bottom=0.5, wgap=0.8,
+                hgap=0.15)
     zoom = 0.0
     for row, name in enumerate(names):
         err = first.scores[name].roll_err * DEG
@@ -102,8 +106,10 @@ def plot_sweep(result: CampaignResult, path: Path) -> None:
     sweep = result.summary.get("sweep") or {}
     dists = sweep.get("distributions") or []
     rows = sweep.get("rows") or []
-    fig, axes = plt.subplots(max(len(dists), 1), 2, figsize=(11.0, 1.5 + 3.3 * max(len(dists), 1)),
-                             squeeze=False, layout="constrained")
+    n = max(len(dists), 1)
+    fig, axes = plt.subplots(n, 2, figsize=(11.0, 1.5 + 3.3 * n), squeeze=False)
+    inch_layout(fig, n, 2, left=0.8, top=0.42 + 0.02 * (1.5 + 3.3 * n),
+                bottom=0.55 + 0.18 * -(-max(len(rows), 1) // 6), hgap=0.9)
     cmap = plt.get_cmap("tab20")
     for i, dist in enumerate(dists):
         for j, axis in enumerate(("pitch", "yaw")):
@@ -141,7 +147,8 @@ def plot_flight(result: CampaignResult, path: Path) -> None:
     first = run0(result)
     alpha, beta = first.truth[:, 0], first.truth[:, 1]
     blind = blind_mask(world, alpha, beta)
-    fig, axes = plt.subplots(1, 3, figsize=(13.0, 3.6), layout="constrained")
+    fig, axes = plt.subplots(1, 3, figsize=(13.0, 3.6))
+    inch_layout(fig, 1, 3, left=0.7, top=0.6, bottom=0.5, wgap=0.75)
     axes[0].plot(np.hypot(s[:, 0], s[:, 2]) / 1e3, s[:, 1] / 1e3, color="k")
     axes[0].set(xlabel="range (km)", ylabel="altitude (km)", title="trajectory")
     axes[1].plot(t, alpha * DEG, label="pitch α")
