@@ -8,45 +8,37 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
+from slam.render import plotting
 from slam.render.figures import default_colours
-from slam.render.plotting import (
-    BASELINE_COLOUR,
-    REFERENCE_COLOUR,
-    covariance_ellipse,
-    filter_names,
-    inch_layout,
-    plt,
-    run0,
-    save,
-    titled,
-)
 from slam.results import ODOMETRY, REFERENCE, Array, CampaignResult
 
 _TRUTH_STYLE = {"color": "black", "lw": 1.6}
 _BASELINE_STYLE = {
-    ODOMETRY: {"color": BASELINE_COLOUR, "lw": 1.0, "ls": ":"},
-    REFERENCE: {"color": REFERENCE_COLOUR, "lw": 1.2, "ls": "--"},
+    ODOMETRY: {"color": plotting.BASELINE_COLOUR, "lw": 1.0, "ls": ":"},
+    REFERENCE: {"color": plotting.REFERENCE_COLOUR, "lw": 1.2, "ls": "--"},
 }
 
 
 def _landmark_estimators(result: CampaignResult) -> list[str]:
     """Run 0's estimators that estimate landmarks: filters, then the smoother."""
     first = result.outcomes[0]
-    return [n for n in [*filter_names(result), REFERENCE]
+    return [n for n in [*plotting.filter_names(result), REFERENCE]
             if n in first.tracks and len(first.tracks[n].landmarks)]
 
 
-def _draw_landmark_estimates(ax: plt.Axes, result: CampaignResult, names: Sequence[str],
+def _draw_landmark_estimates(ax: Axes, result: CampaignResult, names: Sequence[str],
                              colours: dict[str, str]) -> None:
     """Each estimator's final landmark means (+) and their 2σ ellipses."""
     first = result.outcomes[0]
     for name in names:
         track = first.tracks[name]
         for mean, cov in zip(track.landmarks, track.landmark_cov):
-            ell = covariance_ellipse(mean, cov, fc="none", ec=colours[name], lw=1.0, zorder=5)
+            ell = plotting.covariance_ellipse(mean, cov, fc="none", ec=colours[name], lw=1.0,
+                                              zorder=5)
             if ell is not None:
                 ax.add_patch(ell)
         ax.plot(track.landmarks[:, 0], track.landmarks[:, 1], "+", color=colours[name],
@@ -83,11 +75,12 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     """``map.png``: the world, run 0's paths and final landmark estimates (2σ ellipses),
     and a zoom on the landmark estimated least certainly (at map scale the estimates sit
     on top of the true landmarks)."""
-    first, world = run0(result), result.world
+    first, world = plotting.run0(result), result.world
     colours = default_colours(result)
-    fig = plt.figure(figsize=(11.0, 7.2))
+    fig = plotting.plt.figure(figsize=(11.0, 7.2))
     grid = fig.add_gridspec(2, 2, width_ratios=(3.0, 1.2))
-    inch_layout(fig, 2, 2, grid=grid, left=0.75, top=0.3, bottom=0.5, wgap=0.85, hgap=0.45)
+    plotting.inch_layout(fig, 2, 2, grid=grid, left=0.75, top=0.3, bottom=0.5, wgap=0.85,
+                         hgap=0.45)
     ax = fig.add_subplot(grid[:, 0])
     xmin, xmax, ymin, ymax = world.map.bounds_m
     ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,
@@ -97,7 +90,7 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     truth = first.truth
     ax.plot(truth[:, 0], truth[:, 1], label="true path", zorder=2, **_TRUTH_STYLE)
     ax.plot(truth[0, 0], truth[0, 1], "o", color="black", ms=7, label="start", zorder=6)
-    for name in [*filter_names(result), ODOMETRY, REFERENCE]:
+    for name in [*plotting.filter_names(result), ODOMETRY, REFERENCE]:
         track = first.tracks.get(name)
         if track is None:
             continue
@@ -116,7 +109,7 @@ def plot_map(result: CampaignResult, path: Path) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(titled(result, "run 0"))
+    ax.set_title(plotting.titled(result, "run 0"))
     ax.grid(True, lw=0.3, alpha=0.5)
 
     handles, labels = ax.get_legend_handles_labels()
@@ -144,4 +137,4 @@ def plot_map(result: CampaignResult, path: Path) -> None:
                                fill=False, ec="0.3", lw=0.8, zorder=8))
         ax.annotate("zoom", (lm[lid][0] + half, lm[lid][1] + half), fontsize=8,
                     color="0.3", xytext=(2, 2), textcoords="offset points")
-    save(fig, path)
+    plotting.save(fig, path)
