@@ -46,6 +46,7 @@ from slam.render.plotting import (
     estimator_colours,
     filter_names,
     inch_layout,
+    legend_margin,
     plt,
     readable_log_axis,
     run0,
@@ -121,8 +122,7 @@ def _finish(fig, axes, result: CampaignResult, title: str, handles: list, path) 
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.tick_params(labelsize=9)
     bottom_legend(fig, handles)
-    legend_rows = -(-len(handles) // 6) if handles else 0
-    inch_layout(fig, *axes.shape, bottom=0.55 + 0.22 * legend_rows)
+    inch_layout(fig, *axes.shape, bottom=legend_margin(len(handles), 6, row=0.22))
     fig.suptitle(titled(result, title), fontsize=11)
     save(fig, path)
 

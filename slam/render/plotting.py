@@ -274,6 +274,13 @@ def bottom_legend(fig: plt.Figure, handles: Sequence, ncols: int = 6) -> None:
                    fontsize=9, ncols=min(len(handles), ncols), frameon=False)
 
 
+def legend_margin(entries: int, ncols: int, *, base: float = 0.55, row: float = 0.18
+                  ) -> float:
+    """Bottom margin (inches) for :func:`inch_layout` under a legend of ``entries`` entries in
+    rows of ``ncols`` at the figure's bottom edge: ``base`` plus ``row`` per legend row."""
+    return base + row * -(-entries // ncols)
+
+
 def inch_layout(fig: plt.Figure, nrows: int, ncols: int, *, left: float = 0.8,
                 right: float = 0.15, top: float = 0.65, bottom: float = 0.55,
                 wgap: float = 0.85, hgap: float = 0.55, grid=None) -> None:

@@ -76,8 +76,8 @@ def plot_rms(result: CampaignResult, path: Path) -> None:
     t = plotting.run0(result).times
     names = _names(result)
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6))
-    plotting.inch_layout(fig, 1, 3, left=0.75, top=0.55, bottom=0.55 + 0.18 * -(-len(names) // 6),
-                         wgap=0.75)
+    plotting.inch_layout(fig, 1, 3, left=0.75, top=0.55,
+                         bottom=plotting.legend_margin(len(names), 6), wgap=0.75)
 
     def rms(name: str) -> Array | None:
         return run_statistic(result, name, lambda e: np.sqrt(np.nanmean(e**2, axis=0)) / ARCMIN)

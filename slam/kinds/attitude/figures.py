@@ -22,6 +22,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
 from slam.kinds.attitude.run import ARCSEC, AXES, DEG_H
+from slam.render import plotting
 from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
     PANEL_WIDTH,
@@ -36,14 +37,6 @@ from slam.render.figures import (
     figure_table,
     filters_and_reference,
     rmse_sigma_figure,
-)
-from slam.render.plotting import (
-    good_scores,
-    inch_layout,
-    plt,
-    run0,
-    save,
-    titled,
 )
 from slam.render.series import Component, column, rms, stacked
 from slam.results import REFERENCE, CampaignResult
@@ -92,7 +85,7 @@ def plot_convergence(result: CampaignResult, path) -> None:
     filter (grey), the Monte Carlo RMSE (solid) and RMS σ (dashed) of every estimator,
     and the prior's error and σ at t = 0 (before the first star update), on a log axis:
     the whole run (left) and its first seconds (right)."""
-    first, world = run0(result), result.world
+    first, world = plotting.run0(result), result.world
     t, col = first.times, default_colours(result)
     names = filters_and_reference(result)
     base = base_filter(result)
@@ -100,12 +93,12 @@ def plot_convergence(result: CampaignResult, path) -> None:
     prior = math.sqrt(float(np.sum(np.square(fs.initial_error_rad)))) / ARCSEC
     prior_sd = math.sqrt(3.0 * fs.initial_attitude_var_rad2) / ARCSEC
     zoom = t <= t[0] + max(min(20.0, 0.1 * (t[-1] - t[0])), 2.0)
-    fig, axes = plt.subplots(1, 2, figsize=(PANEL_WIDTH, 4.6), width_ratios=(2.0, 1.0),
-                             sharey=True)
-    inch_layout(fig, 1, 2, left=0.8, top=0.55, bottom=0.55 + 0.18 * -(-(len(names) + 5) // 4),
-                wgap=0.45)
+    fig, axes = plotting.plt.subplots(1, 2, figsize=(PANEL_WIDTH, 4.6),
+                                      width_ratios=(2.0, 1.0), sharey=True)
+    plotting.inch_layout(fig, 1, 2, left=0.8, top=0.55, wgap=0.45,
+                         bottom=plotting.legend_margin(len(names) + 5, 4))
     for ax, w in zip(axes, (np.ones_like(zoom), zoom)):
-        for s in good_scores(result, base):
+        for s in plotting.good_scores(result, base):
             ax.plot(t[w], np.linalg.norm(s.err_body, axis=1)[w] / ARCSEC, color="0.78", lw=0.5)
         for name in names:
             err, sd = _norm_series(result, name)
@@ -136,8 +129,9 @@ def plot_convergence(result: CampaignResult, path) -> None:
                 Line2D([], [], color="0.3", lw=0.8, ls="-.", label="1′")]
     fig.legend(handles=handles, loc="outside lower center", ncols=4, fontsize=8,
                frameon=False)
-    fig.suptitle(titled(result, "convergence from the initial attitude error"), fontsize=11)
-    save(fig, path)
+    fig.suptitle(plotting.titled(result, "convergence from the initial attitude error"),
+                 fontsize=11)
+    plotting.save(fig, path)
 
 
 def _bias(i: int, axis: str) -> Tracked:

@@ -27,6 +27,7 @@ from slam.render.plotting import (
     REFERENCE_COLOUR,
     filter_names,
     inch_layout,
+    legend_margin,
     plt,
     readable_log_axis,
     save,
@@ -169,8 +170,9 @@ def plot_map_state(result: CampaignResult, path) -> None:
     windows of :data:`WINDOW` updates against its 95 % band."""
     tracks, col = _tracks(result), default_colours(result)
     fig, axes = plt.subplots(3, 1, figsize=(PANEL_WIDTH, 8.4), sharex=True)
-    legend_rows = -(-(len(_filters(result)) + 1) // 2)  # the NIS legend below the axes
-    inch_layout(fig, 3, 1, left=0.75, top=0.35, bottom=0.65 + 0.21 * legend_rows, hgap=0.15)
+    # the NIS legend hangs below the last axes
+    inch_layout(fig, 3, 1, left=0.75, top=0.35, hgap=0.15,
+                bottom=legend_margin(len(_filters(result)) + 1, 2, base=0.65, row=0.21))
     for name in _filters(result):
         tr = tracks[name]
         k = tr.steps.astype(int)

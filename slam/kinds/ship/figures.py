@@ -31,6 +31,7 @@ from slam.render.plotting import (
     estimator_lines,
     good_scores,
     inch_layout,
+    legend_margin,
     log_time_panels,
     nees_band_axes,
     plt,
@@ -95,8 +96,8 @@ def _lines(result: CampaignResult, axes: Any, series: Callable[[str], Array | No
 def plot_convergence(result: CampaignResult, path: Path) -> None:
     """``convergence.png`` (module docstring)."""
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.6), sharey=True)
-    legend_rows = -(-len(_names(result)) // 5)
-    inch_layout(fig, 1, 3, left=0.75, top=0.55, bottom=0.55 + 0.18 * legend_rows, wgap=0.3)
+    inch_layout(fig, 1, 3, left=0.75, top=0.55, bottom=legend_margin(len(_names(result)), 5),
+                wgap=0.3)
     _lines(result, axes, lambda n: run_statistic(
         result, n, lambda e: np.nanmedian(np.abs(e), axis=0) / ARCMIN))
     bound = result.summary.get("converge_bound_arcmin")

@@ -39,6 +39,7 @@ from slam.render.plotting import (
     estimator_colours,
     filter_names,
     inch_layout,
+    legend_margin,
     plt,
     run0,
     save,
@@ -109,7 +110,7 @@ def plot_sweep(result: CampaignResult, path: Path) -> None:
     n = max(len(dists), 1)
     fig, axes = plt.subplots(n, 2, figsize=(11.0, 1.5 + 3.3 * n), squeeze=False)
     inch_layout(fig, n, 2, left=0.8, top=0.42 + 0.02 * (1.5 + 3.3 * n),
-                bottom=0.55 + 0.18 * -(-max(len(rows), 1) // 6), hgap=0.9)
+                bottom=legend_margin(max(len(rows), 1), 6), hgap=0.9)
     cmap = plt.get_cmap("tab20")
     for i, dist in enumerate(dists):
         for j, axis in enumerate(("pitch", "yaw")):
