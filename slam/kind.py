@@ -19,7 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from estimators.filters import FILTER_NAMES
-from slam.render.document import KindReport, captioned
+from slam.render.document import KindReport
 from slam.results import RunOutcome
 
 Parser = Callable[[dict[str, Any], str, str, "Traversable | None"], Any]
@@ -67,16 +67,6 @@ class Deferred:
         if name.startswith("__") or name == "target":  # copy/pickle probes; no recursion
             raise AttributeError(name)
         return getattr(self.load(), name)
-
-
-def figures_of(module: str) -> Callable[[], dict[str, tuple[Any, str]]]:
-    """A report's ``figures`` for the figure module ``module`` (``"package.module"``, with
-    ``figure_writers()`` and ``CAPTIONS``), imported when first called, so a run without
-    figures never imports matplotlib."""
-    def figures() -> dict[str, tuple[Any, str]]:
-        drawn = importlib.import_module(module)
-        return captioned(drawn.figure_writers(), drawn.CAPTIONS)
-    return figures
 
 
 @dataclass(frozen=True)

@@ -80,12 +80,6 @@ def _provenance_sections(summary: dict[str, Any]) -> list[Section]:
     return [Section("Provenance", ("item", "value"), rows, key_value=True)] if rows else []
 
 
-def captioned(writers: dict[str, Figure], captions: dict[str, str]
-              ) -> dict[str, tuple[Figure, str]]:
-    """File name -> (function drawing it, caption), for :attr:`KindReport.figures`."""
-    return {name: (fn, captions[name]) for name, fn in writers.items()}
-
-
 def paper_ranges_section(summary: dict[str, Any], title: str, ours: str) -> Section:
     """The paper's quoted error ranges next to ours (:func:`~slam.render.tables.paper_rows`),
     or a note that the world quotes none; ``ours`` says how our ranges were taken."""

@@ -22,6 +22,7 @@ import numpy as np
 
 from slam.kinds.alignment.scoring import ARCMIN, AXES
 from slam.render import plotting
+from slam.render.figures import FigureSpec, figure_table
 from slam.render.plotting import plt
 from slam.render.series import run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
@@ -113,19 +114,29 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
     plotting.save(fig, path)
 
 
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {"misalignment_errors.png": plot_errors, "rms.png": plot_rms, "nees.png": plot_nees}
+def figure_specs() -> list[FigureSpec]:
+    """The report's figures, in report order."""
+    return [
+        FigureSpec("misalignment_errors.png",
+                   "The paper's Fig. 1 re-drawn (and the azimuth): East, North and azimuth "
+                   "misalignment error (′) vs time per filter - run 0 with its ±2σ, the Monte "
+                   "Carlo envelope, the smoother's run 0 (keys 1 s apart, joined) and the "
+                   "paper's H∞ values (dashed). East/North y range set after 10 s.",
+                   plot_errors),
+        FigureSpec("rms.png",
+                   "Monte Carlo RMS of the misalignment error vs time (log scale), every "
+                   "estimator; dotted: the level limit ∇/g from the world's accelerometer "
+                   "bias.",
+                   plot_rms),
+        FigureSpec("nees.png",
+                   "Run-averaged 3-dof misalignment NEES / 3 vs time with its 95 % χ² band "
+                   "(the smoother at its keys, where its marginals exist).",
+                   plot_nees),
+    ]
 
 
-CAPTIONS = {
-    "misalignment_errors.png": "The paper's Fig. 1 re-drawn (and the azimuth): East, North "
-                               "and azimuth misalignment error (′) vs time per filter - run 0 "
-                               "with its ±2σ, the Monte Carlo envelope, the smoother's run 0 "
-                               "(keys 1 s apart, joined) and the paper's H∞ values (dashed). "
-                               "East/North y range set after 10 s.",
-    "rms.png": "Monte Carlo RMS of the misalignment error vs time (log scale), every "
-               "estimator; dotted: the level limit ∇/g from the world's accelerometer bias.",
-    "nees.png": "Run-averaged 3-dof misalignment NEES / 3 vs time with its 95 % χ² band "
-                "(the smoother at its keys, where its marginals exist).",
-}
+def figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """File name -> (function drawing it, caption), for
+    :class:`~slam.render.document.KindReport` (named lazily by the report, so a run
+    without figures never imports matplotlib)."""
+    return figure_table(figure_specs())

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kind import figures_of
+from slam.kind import Deferred
 from slam.render import tables
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
@@ -237,5 +237,5 @@ def text_table(summary: dict[str, Any]) -> str:
 
 
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,
-                    figures_of("slam.kinds.alignment.figures"), text_table)
+                    Deferred("slam.kinds.alignment.figures:figures"), text_table)
 """The alignment kind's report."""

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from slam.kinds.ship.scoring import ARCMIN, AXES
+from slam.render.figures import FigureSpec, figure_table
 from slam.render.plotting import (
     ErrorGrid,
     ErrorPanel,
@@ -120,22 +121,30 @@ def plot_nees(result: CampaignResult, path: Path) -> None:
     save(fig, path)
 
 
-def figure_writers() -> dict[str, Callable[[CampaignResult, Path], None]]:
-    """File name -> function drawing it."""
-    return {"attitude_errors.png": plot_attitude_errors, "convergence.png": plot_convergence,
-            "nees.png": plot_nees}
+def figure_specs() -> list[FigureSpec]:
+    """The report's figures, in report order."""
+    return [
+        FigureSpec("attitude_errors.png",
+                   "The paper's Fig. 1-3 re-drawn: roll, pitch and yaw error (′) vs time per "
+                   "filter - run 0 with its ±2σ, the Monte Carlo envelope, the smoother's run "
+                   "0 and the paper's bounds (dashed). The y range is set after 30 s; the "
+                   "initial transient is off the scale (see convergence.png).",
+                   plot_attitude_errors),
+        FigureSpec("convergence.png",
+                   "Median |error| over the runs vs time (log scale), every estimator (solid: "
+                   "pseudo-observation Z = G q, dashed: vector measurement B = C(q)ᵀR; "
+                   "estimators that coincide are drawn with decreasing widths) and the "
+                   "smoother; dotted: the 10′ bound.",
+                   plot_convergence),
+        FigureSpec("nees.png",
+                   "Run-averaged NEES / 6 (attitude and drift) vs time with its 95 % χ² band "
+                   "(line styles as in convergence.png).",
+                   plot_nees),
+    ]
 
 
-CAPTIONS = {
-    "attitude_errors.png": "The paper's Fig. 1-3 re-drawn: roll, pitch and yaw error (′) vs "
-                           "time per filter - run 0 with its ±2σ, the Monte Carlo envelope, "
-                           "the smoother's run 0 and the paper's bounds (dashed). The y range "
-                           "is set after 30 s; the initial transient is off the scale (see "
-                           "convergence.png).",
-    "convergence.png": "Median |error| over the runs vs time (log scale), every estimator "
-                       "(solid: pseudo-observation Z = G q, dashed: vector measurement "
-                       "B = C(q)ᵀR; estimators that coincide are drawn with decreasing "
-                       "widths) and the smoother; dotted: the 10′ bound.",
-    "nees.png": "Run-averaged NEES / 6 (attitude and drift) vs time with its 95 % χ² band "
-                "(line styles as in convergence.png).",
-}
+def figures() -> dict[str, tuple[Callable[[CampaignResult, Path], None], str]]:
+    """File name -> (function drawing it, caption), for
+    :class:`~slam.render.document.KindReport` (named lazily by the report, so a run
+    without figures never imports matplotlib)."""
+    return figure_table(figure_specs())

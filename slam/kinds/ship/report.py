@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from slam.kind import figures_of
+from slam.kind import Deferred
 from slam.render import tables
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
@@ -265,5 +265,5 @@ def text_table(summary: dict[str, Any]) -> str:
 
 
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,
-                    figures_of("slam.kinds.ship.figures"), text_table)
+                    Deferred("slam.kinds.ship.figures:figures"), text_table)
 """The ship kind's report."""
