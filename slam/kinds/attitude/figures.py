@@ -181,8 +181,3 @@ def figures() -> dict[str, tuple[Figure, str]]:
     """The report's figures, file name -> (drawing function, caption); the report names
     this module lazily, so a run without figures never imports matplotlib."""
     return figure_table(figure_specs())
-
-
-def figure_writers() -> dict[str, Figure]:
-    """File name -> function drawing it."""
-    return {s.name: s.draw for s in figure_specs()}

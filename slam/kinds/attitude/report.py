@@ -1,6 +1,6 @@
 """Tables and report of an ``attitude`` (star-sensor) campaign.
 
-:func:`attitude_tables` renders the summary dict alone as Markdown: our errors,
+:func:`attitude_sections` turns the summary dict into the report's sections: our errors,
 consistency and timing, then the paper's Table 2 next to ours; :func:`text_table` is the
 compact terminal table.  The figures are in :mod:`slam.kinds.attitude.figures`;
 :data:`REPORT` is the :class:`~slam.render.document.KindReport` of ``kind = "attitude"``
@@ -22,7 +22,6 @@ from slam.render.tables import (
     consistency_rule,
     estimator_entries,
     failure_notes,
-    markdown_table,
     num,
     percent,
     plain_table,
@@ -146,21 +145,6 @@ HOW_TO_READ = (
     "MEKF agree to ~1e-7 arcsec: with sigma points a few arcseconds apart the models are "
     "linear to round-off, so the paper's differences between SRCKF, SRUKF and SRCDKF are "
     "not reproduced.")
-
-
-def attitude_tables(summary: dict[str, Any]) -> str:
-    """Markdown: our attitude results, convergence (if scored), the paper's Table 2."""
-    parts = [_results_text(summary), "", markdown_table(RESULT_HEADER, result_rows(summary))]
-    conv = convergence_rows(summary)
-    if conv:
-        parts += ["", CONVERGENCE_TEXT, "", markdown_table(CONVERGENCE_HEADER, conv)]
-    rows = paper_rows(summary)
-    if rows:
-        parts += ["", PAPER_TEXT, "", markdown_table(PAPER_HEADER, rows)]
-    statement = _paper_statement(summary)
-    if statement:
-        parts += ["", f"Paper: {statement}"]
-    return "\n".join(parts) + "\n"
 
 
 def _paper_statement(summary: dict[str, Any]) -> str | None:

@@ -29,8 +29,8 @@ def test_convergence_time() -> None:
 def test_small_campaign_end_to_end(attitude_result) -> None:
     """The session's small campaign (``attitude_result``): summary, tables, report sections
     (its figures are checked with every kind's in ``tests/slam/test_reports.py``)."""
-    from slam.kinds.attitude.figures import figure_writers
-    from slam.kinds.attitude.report import REPORT, attitude_tables
+    from slam.kinds.attitude.figures import figure_specs
+    from slam.kinds.attitude.report import REPORT
 
     result = attitude_result
     w = result.world
@@ -50,11 +50,11 @@ def test_small_campaign_end_to_end(attitude_result) -> None:
         assert e["time_per_cycle_s"] > 0.0
     assert s["reference"]["gtsam"]["time_s"] > 0.0
     json.dumps(s, allow_nan=False)
-    table = attitude_tables(s)
+    table = REPORT.markdown(s)
     assert "srckf" in table and "Paper's Table 2" in table and "ekf (MEKF)" in table
     titles = [sec.title for sec in REPORT.sections(s)]
     assert titles[:2] == ["Results", "Convergence"] and "How to read this" in titles
-    assert set(REPORT.figures()) == set(figure_writers())
+    assert set(REPORT.figures()) == {spec.name for spec in figure_specs()}
     text = REPORT.text_table(s)
     assert "srckf" in text and "(deg/h)" in text
     assert max(len(line) for line in text.splitlines()) <= 100
