@@ -18,7 +18,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
-
 def pytest_collection_finish(session) -> None:
     """Move what collection imported (numpy, scipy, gtsam, the project, hypothesis) out of
     the garbage collector's reach: its full collections then walk only what the tests
