@@ -1,11 +1,27 @@
 """Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
 
-from .filters import FILTER_NAMES, ROBUST_FILTER_NAMES, Filter, make_filter
+from .filters import (
+    FILTER_NAMES,
+    ROBUST_FILTER_NAMES,
+    SETTINGS,
+    Filter,
+    describe_settings,
+    make_filter,
+    settings_for,
+)
 from .finite import NonFiniteError
 from .hinf import HInfinityFilter, RiccatiConditionError
 from .homm import HighOrderMoment
 from .linalg import NotPositiveDefiniteError, chol, chol_update, svd_factor, tria
-from .models import Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
+from .models import (
+    Gaussian,
+    Innovation,
+    Measurement,
+    Noise,
+    NoiseError,
+    SqrtGaussian,
+    Transition,
+)
 from .partitioned import PARTITIONED_FILTERS, BlockLayout, NoPartitionedModeError
 from .rules import CentralDifference, Cubature, Unscented
 from .spaces import Angle, Euclidean, Product, Space, Wrapped, wrap_angle
@@ -16,5 +32,6 @@ __all__ = [
     "svd_factor", "tria", "Gaussian", "Innovation", "Measurement", "Noise", "SqrtGaussian",
     "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
     "Product", "Space", "Wrapped", "wrap_angle", "PARTITIONED_FILTERS", "BlockLayout",
-    "NoPartitionedModeError", "NonFiniteError",
+    "NoPartitionedModeError", "NonFiniteError", "NoiseError", "SETTINGS", "describe_settings",
+    "settings_for",
 ]

@@ -111,6 +111,7 @@ The time update is the rule's sigma-point prediction, unchanged
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, NoReturn
 
@@ -128,6 +129,7 @@ if TYPE_CHECKING:
 OnFailure = Literal["raise", "kalman"]
 
 __all__ = [
+    "MIN_GAMMA",
     "HInfinityFilter",
     "OnFailure",
     "RiccatiConditionError",
@@ -158,9 +160,17 @@ class RiccatiConditionError(ArithmeticError):
             f"(needs > 0; raise gamma or use on_failure='kalman')")
 
 
+MIN_GAMMA = 1.0 / math.sqrt(float(np.finfo(float).max))
+"""The smallest bound γ whose 1/γ² is a finite number (about 7.5e-155): the update
+subtracts γ⁻² I from the information matrix."""
+
+
 def _check_gamma(gamma: float) -> None:
-    if not gamma > 0.0:
-        raise ValueError(f"gamma must be positive, got {gamma!r}")
+    if isinstance(gamma, bool) or not isinstance(gamma, int | float) or math.isnan(gamma):
+        raise ValueError(f"gamma must be a number, got {gamma!r}")
+    if not gamma >= MIN_GAMMA:
+        raise ValueError(f"gamma must be at least {MIN_GAMMA:.3g} (1/gamma**2 must be finite), "
+                         f"got {gamma!r}")
 
 
 def riccati_min_eigenvalue(form: Form, kalman_posterior: Array, gamma: float) -> float:

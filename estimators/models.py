@@ -28,27 +28,120 @@ from .spaces import Euclidean, Space
 Array = NDArray[np.float64]
 
 
+class NoiseError(ValueError, ArithmeticError):
+    """A noise covariance or factor that is not finite, square, symmetric and positive
+    semi-definite (or a σ whose square under- or overflows).
+
+    A ``ValueError`` for a library caller; also an ``ArithmeticError``, so a noise built
+    from bad numbers inside a run ends that run as a counted divergence
+    (:mod:`estimators.loop`) rather than escaping it."""
+
+
+_SYM_RTOL = 1e-9
+_FACTOR_RTOL = 1e-6
+
+
+def _as_matrix(a: Any, what: str) -> Array:
+    m = np.atleast_2d(np.asarray(a, dtype=float))
+    if m.ndim != 2:
+        raise NoiseError(f"noise {what} must be a matrix, got shape {m.shape}")
+    if not np.isfinite(m).all():
+        raise NoiseError(f"noise {what} is not finite")
+    return m
+
+
+def _check_symmetric(cov: Array) -> None:
+    if cov.shape[0] != cov.shape[1]:
+        raise NoiseError(f"noise covariance must be square, got shape {cov.shape}")
+    scale = float(np.max(np.abs(cov), initial=0.0))
+    if np.max(np.abs(cov - cov.T), initial=0.0) > _SYM_RTOL * scale:
+        raise NoiseError("noise covariance is not symmetric")
+    if (np.diagonal(cov) < 0.0).any():
+        raise NoiseError(f"noise covariance has a negative variance "
+                         f"({float(np.diagonal(cov).min()):.3e})")
+
+
+def _psd_sqrt(cov: Array) -> Array:
+    """A square factor of a symmetric ``cov``: Cholesky, or for a singular positive
+    semi-definite matrix ``U Λ₊^{1/2}`` (eigenvalues down to ``-n ε λ_max`` count as 0)."""
+    try:
+        return chol(cov)
+    except np.linalg.LinAlgError:
+        pass
+    lam, U = np.linalg.eigh(cov)
+    top = float(np.max(np.abs(lam), initial=0.0))
+    if lam.min(initial=0.0) < -cov.shape[0] * np.finfo(float).eps * top:
+        raise NoiseError(f"noise covariance is not positive semi-definite "
+                         f"(eigenvalue {lam.min():.3e})") from None
+    return U * np.sqrt(np.clip(lam, 0.0, None))
+
+
 @dataclass(frozen=True)
 class Noise:
-    """A zero-mean Gaussian noise: covariance ``cov`` and its lower factor ``sqrt``."""
+    r"""A zero-mean Gaussian noise: covariance ``cov`` (d, d) and a factor ``sqrt`` (d, k)
+    with :math:`\mathrm{cov} = S S^\top` (lower triangular from :meth:`from_cov` when the
+    covariance is positive definite).
+
+    Every constructor checks its input - finite, square, symmetric, positive
+    semi-definite, ``cov`` equal to ``sqrt @ sqrt.T`` to a relative 1e-6 - and raises
+    :class:`NoiseError` naming the fault; a filter never sees a NaN or infinite noise.
+    """
 
     cov: Array
     sqrt: Array
 
+    def __post_init__(self) -> None:
+        cov, sqrt = _as_matrix(self.cov, "covariance"), _as_matrix(self.sqrt, "factor")
+        _check_symmetric(cov)
+        if sqrt.shape[0] != cov.shape[0]:
+            raise NoiseError(f"noise factor has {sqrt.shape[0]} rows for a "
+                             f"{cov.shape[0]}-dimensional covariance")
+        implied = sqrt @ sqrt.T
+        scale = max(float(np.max(np.abs(cov), initial=0.0)),
+                    float(np.max(np.abs(implied), initial=0.0)))
+        if np.max(np.abs(implied - cov), initial=0.0) > _FACTOR_RTOL * scale:
+            raise NoiseError("noise factor does not reproduce the covariance "
+                             "(cov != sqrt @ sqrt.T)")
+        object.__setattr__(self, "cov", cov)
+        object.__setattr__(self, "sqrt", sqrt)
+
     @classmethod
     def from_cov(cls, cov: Array) -> Noise:
-        cov = np.atleast_2d(np.asarray(cov, dtype=float))
-        return cls(cov, chol(cov))
+        """From a finite, symmetric, positive semi-definite covariance."""
+        cov = _as_matrix(cov, "covariance")
+        _check_symmetric(cov)
+        return cls(cov, _psd_sqrt(cov))
 
     @classmethod
     def from_sigmas(cls, sigmas: Array) -> Noise:
+        """Independent components with standard deviations ``sigmas`` (finite, >= 0, and
+        each σ² a normal float: a σ > 0 whose square underflows is refused)."""
         s = np.atleast_1d(np.asarray(sigmas, dtype=float))
-        return cls(np.diag(s**2), np.diag(s))
+        if s.ndim != 1:
+            raise NoiseError(f"noise sigmas must be a vector, got shape {s.shape}")
+        if not np.isfinite(s).all():
+            raise NoiseError("noise sigma is not finite")
+        if (s < 0.0).any():
+            raise NoiseError(f"noise sigma is negative ({float(s.min()):.3e})")
+        with np.errstate(over="ignore", under="ignore"):
+            var = s**2
+        if not np.isfinite(var).all():
+            raise NoiseError(f"noise sigma {float(s.max()):.3e} squares to infinity")
+        tiny = (s > 0.0) & (var < np.finfo(float).tiny)
+        if tiny.any():
+            raise NoiseError(f"noise sigma {float(s[tiny].min()):.3e} squares to "
+                             f"{float(var[tiny].min()):.3e} (underflow)")
+        return cls(np.diag(var), np.diag(s))
 
     @classmethod
     def from_sqrt(cls, sqrt: Array) -> Noise:
-        sqrt = np.atleast_2d(np.asarray(sqrt, dtype=float))
-        return cls(sqrt @ sqrt.T, sqrt)
+        """From any finite factor ``S`` (d, k): ``cov = S Sᵀ``."""
+        sqrt = _as_matrix(sqrt, "factor")
+        with np.errstate(over="ignore", invalid="ignore"):
+            cov = sqrt @ sqrt.T
+        if not np.isfinite(cov).all():
+            raise NoiseError("noise factor squares to a non-finite covariance")
+        return cls(0.5 * (cov + cov.T), sqrt)
 
     @property
     def dim(self) -> int:
@@ -98,6 +191,17 @@ class SqrtGaussian:
 Belief = Gaussian | SqrtGaussian
 
 
+def _check_model(what: str, fn: Any, noise: Any, jacobian: Any) -> None:
+    """A model's callables are callable and its noise is a :class:`Noise` (validated when
+    it was made) or behaves as one (``dim``, ``cov``, ``sqrt``: e.g. a lazily formed noise)."""
+    if not callable(fn):
+        raise TypeError(f"{what} function must be callable, got {type(fn).__name__}")
+    if jacobian is not None and not callable(jacobian):
+        raise TypeError(f"{what} Jacobian must be callable or None")
+    if not isinstance(noise, Noise) and not all(hasattr(noise, a) for a in ("dim", "cov", "sqrt")):
+        raise TypeError(f"{what} noise must be a Noise, got {type(noise).__name__}")
+
+
 @dataclass(frozen=True)
 class Transition:
     """Motion model.
@@ -124,6 +228,9 @@ class Transition:
     space: Space | None = None
     jacobian: Callable[..., Any] | None = None
 
+    def __post_init__(self) -> None:
+        _check_model("transition", self.f, self.noise, self.jacobian)
+
 
 @dataclass(frozen=True)
 class Measurement:
@@ -138,8 +245,12 @@ class Measurement:
     jacobian: Callable[[Array], Array] | None = None
 
     def __post_init__(self) -> None:
+        _check_model("measurement", self.h, self.noise, self.jacobian)
         if self.space is None:
             object.__setattr__(self, "space", Euclidean(self.noise.dim))
+        elif self.space.dim != self.noise.dim:
+            raise NoiseError(f"measurement noise is {self.noise.dim}-dimensional, its space "
+                             f"{self.space.dim}-dimensional")
 
 
 @dataclass(frozen=True)
