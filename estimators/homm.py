@@ -125,6 +125,10 @@ class HighOrderMoment:
     kurtosis: float | tuple[float, ...] = 3.0
     name: str = "high-order-moment"
 
+    @property
+    def settings(self) -> dict[str, float | str]:
+        return {"skewness": self.skewness, "kurtosis": self.kurtosis}  # type: ignore[dict-item]
+
     def points(self, n: int) -> tuple[Array, Array]:
         return _homm_points(_per_axis(self.skewness, n, "skewness"),
                             _per_axis(self.kurtosis, n, "kurtosis"))

@@ -52,6 +52,10 @@ class Cubature:
 
     name: str = "cubature"
 
+    @property
+    def settings(self) -> dict[str, float | str]:
+        return {}
+
     def points(self, n: int) -> tuple[Array, Array]:
         return _symmetric_points(n, float(np.sqrt(n)), False), _cubature_weights(n)
 
@@ -62,6 +66,11 @@ class Cubature:
 @lru_cache(maxsize=256)
 def _cubature_weights(n: int) -> Array:
     return _readonly(np.full(2 * n, 1.0 / (2 * n)))[0]
+
+
+JULIER_KAPPA = "3-n"
+"""``Unscented(kappa=JULIER_KAPPA)``: κ = 3 − n in every dimension (Julier & Uhlmann's
+original set, whose fourth moments along the axes are the Gaussian's)."""
 
 
 @dataclass(frozen=True)
@@ -75,17 +84,53 @@ class Unscented:
         w^m_0 = \tfrac{\lambda}{n+\lambda},\ w^c_0 = w^m_0 + 1 - \alpha^2 + \beta,\
         w_{\pm i} = \tfrac{1}{2(n+\lambda)} .
 
-    A negative :math:`w^c_0` is carried as a signed rank-one term (a Cholesky
-    downdate in the square-root form).
+    ``kappa`` is a number or ``"3-n"`` (:data:`JULIER_KAPPA`: κ = 3 − n for whatever
+    dimension the rule is asked for).  A negative :math:`w^c_0` is carried as a signed
+    rank-one term (a Cholesky downdate in the square-root form).
+
+    **α = 1, β = 2, κ = 0 (the defaults) is the cubature rule in disguise**: λ = 0, so the
+    points are the cubature points :math:`\pm\sqrt n\, e_i` with the cubature weights
+    :math:`1/2n`, plus a centre point of mean weight 0 and covariance weight 2 - a CKF
+    with one changed weight (:attr:`cubature_equivalent`).  Compare a UKF with a CKF only
+    at another setting (e.g. κ = 3 − n, or the scaled set α = 1e-3, β = 2, κ = 0).
     """
 
     alpha: float = 1.0
     beta: float = 2.0
-    kappa: float = 0.0
+    kappa: float | str = 0.0
     name: str = "unscented"
 
+    def __post_init__(self) -> None:
+        for key in ("alpha", "beta"):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
+                raise ValueError(f"unscented {key} must be a finite number, got {v!r}")
+        if not self.alpha > 0.0:
+            raise ValueError(f"unscented alpha must be positive, got {self.alpha!r}")
+        k = self.kappa
+        if isinstance(k, str):
+            if k != JULIER_KAPPA:
+                raise ValueError(f"unscented kappa must be a number or {JULIER_KAPPA!r}, got {k!r}")
+        elif isinstance(k, bool) or not isinstance(k, int | float) or not np.isfinite(k):
+            raise ValueError(f"unscented kappa must be a finite number or {JULIER_KAPPA!r}, "
+                             f"got {k!r}")
+
+    def kappa_for(self, n: int) -> float:
+        """κ in dimension ``n`` (``3 - n`` for :data:`JULIER_KAPPA`)."""
+        return 3.0 - n if isinstance(self.kappa, str) else float(self.kappa)
+
+    @property
+    def cubature_equivalent(self) -> bool:
+        """True when λ = 0 in every dimension (α = 1, κ = 0): the cubature points and mean
+        weights plus a zero-weight centre (see the class docstring)."""
+        return self.alpha == 1.0 and not isinstance(self.kappa, str) and self.kappa == 0.0
+
+    @property
+    def settings(self) -> dict[str, float | str]:
+        return {"alpha": self.alpha, "beta": self.beta, "kappa": self.kappa}
+
     def _lam(self, n: int) -> float:
-        lam = self.alpha**2 * (n + self.kappa) - n
+        lam = self.alpha**2 * (n + self.kappa_for(n)) - n
         if not n + lam > 0.0:
             raise ValueError(f"unscented rule needs n + lambda > 0 (n={n}, lambda={lam})")
         return lam
@@ -133,6 +178,16 @@ class CentralDifference:
 
     h: float = float(np.sqrt(3.0))
     name: str = "central-difference"
+
+    def __post_init__(self) -> None:
+        h = self.h
+        if isinstance(h, bool) or not isinstance(h, int | float) or not (np.isfinite(h)
+                                                                         and h > 1.0):
+            raise ValueError(f"central-difference h must be a finite number above 1, got {h!r}")
+
+    @property
+    def settings(self) -> dict[str, float | str]:
+        return {"h": self.h}
 
     def points(self, n: int) -> tuple[Array, Array]:
         return _symmetric_points(n, self.h, True), _cd_weights(n, self.h)

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from estimators import make_filter
+from estimators import make_filter, settings_for
 from estimators.linalg import Array
 from estimators.loop import Divergence, run_epochs
 from estimators.models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
@@ -218,7 +218,8 @@ def run_problem(problem: SlamProblem, filter_name: str, *, mode: str = "joint",
     if association == "nn" and problem.nearest is None:
         raise ValueError("this log has no nearest-neighbour association; use known ids")
     # a variant ``<base>-<variant>`` is the base filter; the problem carries the variant
-    filt = make_filter(filter_name.partition("-")[0], **(filter_params or {}))
+    base = filter_name.partition("-")[0]
+    filt = make_filter(base, **settings_for(base, filter_params or {}))
     ops = (_LocalSteps if mode == "local" else _JointSteps)(filt, problem)
     lay = problem.layout
     nv, nvt = lay.vehicle_ambient, lay.vehicle_dim

@@ -25,6 +25,7 @@ from estimators import (
     Transition,
     Unscented,
     make_filter,
+    settings_for,
 )
 from estimators.linearise import numerical_jacobian
 from estimators.sigma import SigmaPointFilter
@@ -71,7 +72,7 @@ def test_a_semidefinite_prior_is_accepted_and_a_negative_one_refused(name):
     us, zs = simulate_linear(50, seed=2)
     x0, P0 = np.zeros(4), np.diag([0.0, 2.0, (5e-324) ** 2, 1.5])
     ref = kalman_reference(x0, P0, us, zs)
-    filt = make_filter(name, gamma=np.inf)
+    filt = make_filter(name, **settings_for(name, {"gamma": np.inf}))
     tr, me = linear_models(with_jacobians=True)
     b = filt.init(x0, Euclidean(4), cov=P0)
     np.testing.assert_allclose(b.cov, P0, atol=1e-15)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Euclidean, make_filter
+from estimators import Euclidean, make_filter, settings_for
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from slam.kinds.alignment.models import (
@@ -48,7 +48,7 @@ Array = NDArray[np.float64]
 
 def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str) -> AlignScores:
     """Filter ``name`` over the log (module docstring), scored against the truth."""
-    flt = make_filter(name, gamma=world.filters.gamma)
+    flt = make_filter(name, **settings_for(name, {"gamma": world.filters.gamma}))
     x0, P0 = initial_belief(world, log)
     M = log.n_epochs
     rec = BeliefRecorder.empty(M, N_STATE, N_STATE)

@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Angle, Measurement, Noise, Transition, make_filter
+from estimators import Angle, Measurement, Noise, Transition, make_filter, settings_for
 from estimators.loop import run_epochs
 from slam.kinds.spinning.simulate import SpinLog
 from slam.kinds.spinning.truth import Field, axial_field
@@ -141,7 +141,7 @@ class Series(RunFacts):
 def run_filter(log: SpinLog, name: str, m: Models, label: str | None = None) -> Series:
     """Run filter ``name`` over the log (module docstring); ``label`` names the series."""
     E = log.n_epochs
-    flt = make_filter(name, gamma=m.gamma, on_failure=m.on_failure)  # type: ignore[arg-type]
+    flt = make_filter(name, **settings_for(name, {"gamma": m.gamma, "on_failure": m.on_failure}))
     means = np.full((E, 2), np.nan)
     covs = np.full((E, 2, 2), np.nan)
     nis = np.full(E, np.nan)
