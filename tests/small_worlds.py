@@ -22,6 +22,13 @@ SQUARE_WAYPOINTS = [[30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]]
 SQUARE_LANDMARKS = [[15.0, -6.0], [36.0, 15.0], [15.0, 36.0], [-6.0, 15.0]]
 
 
+SETTINGS: dict[str, Any] = {
+    "unscented": {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"},
+    "central_difference": {"h": 3.0**0.5},
+}
+"""The filter settings tables of the small worlds (the bundled SLAM worlds' own)."""
+
+
 def small_world(
     *,
     runs: int = 3,
@@ -59,7 +66,7 @@ def small_world(
         },
         "sensor": dict(sensor or {}),
         "noise": dict(noise or {}),
-        "filters": {"names": list(filters), **(filter_options or {})},
+        "filters": {"names": list(filters), **SETTINGS, **(filter_options or {})},
     }
     return world_from_dict(data, name=name)
 
@@ -85,7 +92,7 @@ def small_drone_doc(**sections: Any) -> dict[str, Any]:
                     "hill_width_m": 6.0, "grid_spacing_m": 3.0},
         "vehicle": {"loops": 1, "start_xy_m": [0.0, 0.0], "start_heading_deg": 0.0,
                     "speed_mps": 4.0},
-        "filters": {"names": list(DRONE_FILTERS)},
+        "filters": {"names": list(DRONE_FILTERS), **SETTINGS},
         "paper": {"filters": {"srckf": {"pos_err_range_m": {"x": [-0.5, 0.6],
                                                             "y": [-0.5, 0.2],
                                                             "z": [-0.5, 0.05]}}}},

@@ -8,12 +8,16 @@ nothing else (:func:`parse_checked`)."""
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 import worlds.schema as ws
+from estimators.filters import SETTINGS, describe_settings, make_filter
+from estimators.hinf import MIN_GAMMA
+from estimators.rules import JULIER_KAPPA
 from worlds.units import DEG, DEG_H
 
 
@@ -127,3 +131,123 @@ def bias_sigma(hi_deg_h: float) -> ws.Number:
     """The ``initial_bias_sigma_deg_h`` key: a filter's prior gyro-bias σ (deg/h in the
     file, at most ``hi_deg_h``), filling ``initial_bias_sigma_rad_s``."""
     return ws.Number(ws.positive(hi_deg_h), scale=DEG_H).to("initial_bias_sigma_rad_s")
+
+
+# --- filter settings ---------------------------------------------------------------------
+
+class Kappa(ws.Field):
+    """The unscented κ: a number in [-100, 100] or the string ``"3-n"`` (κ = 3 − n in
+    every dimension, Julier's original set)."""
+
+    def __init__(self) -> None:
+        self.default = ws.REQUIRED
+
+    def parse(self, value: Any, where: ws.Where) -> float | str:
+        if isinstance(value, str):
+            if value != JULIER_KAPPA:
+                raise where.error(f'must be a number in [-100, 100] or "{JULIER_KAPPA}"', value)
+            return value
+        return ws.Number(ws.Interval(-100.0, 100.0)).parse(value, where)
+
+
+RULE_SETTINGS: dict[str, dict[str, ws.Field]] = {
+    "unscented": {"alpha": ws.Number(ws.Interval(1e-4, 10.0)),
+                  "beta": ws.Number(ws.Interval(-10.0, 10.0)),
+                  "kappa": Kappa()},
+    "central_difference": {"h": ws.Number(ws.Interval(1.0, 10.0))},
+    "hinf": {"gamma": ws.Number(ws.Interval(MIN_GAMMA, math.inf)),
+             "on_failure": ws.String(choices=("raise", "kalman"))},
+    "homm": {"skewness": ws.Number(ws.Interval(-10.0, 10.0)),
+             "kurtosis": ws.Number(ws.Interval(1.0, 100.0))},
+}
+"""The ``[filters.<table>]`` settings tables and their keys (the names of
+:func:`estimators.make_filter`'s settings; every key required once the table is given)."""
+
+FAMILY_OF_SETTING = {key: table for table, keys in RULE_SETTINGS.items() for key in keys}
+
+
+def tables_of(base: str) -> tuple[str, ...]:
+    """The settings tables filter ``base`` (a :func:`~estimators.make_filter` name) needs."""
+    return tuple(dict.fromkeys(FAMILY_OF_SETTING[s] for s in SETTINGS[base]))
+
+
+def base_filter(name: str) -> str:
+    """The :func:`~estimators.make_filter` name inside a workbench filter name: the first
+    dash- or colon-separated part that is one (``ea-ukf`` -> ``ukf``, ``srukf-inv`` ->
+    ``srukf``, ``ukf:additive`` -> ``ukf``); ``name`` itself if none is."""
+    for part in name.replace(":", "-").split("-"):
+        if part in SETTINGS:
+            return part
+    return name
+
+
+class SettingsTable(ws.Field):
+    """An optional ``[filters.<table>]`` table of filter settings (:data:`RULE_SETTINGS`):
+    ``None`` when absent, else a dict of its checked keys (all required)."""
+
+    def __init__(self, table: str) -> None:
+        self.table, self.default = table, None
+
+    def parse(self, value: Any, where: ws.Where) -> dict[str, Any]:
+        return ws.read_table(value, RULE_SETTINGS[self.table], where)
+
+
+def settings_tables() -> dict[str, ws.Field]:
+    """The settings tables a kind's ``[filters]`` section declares (each optional; which
+    are required follows from the filters it runs: :func:`check_settings`)."""
+    return {table: SettingsTable(table) for table in RULE_SETTINGS}
+
+
+@dataclass(frozen=True)
+class TunedFilters:
+    """Mixin of a ``[filters]`` section with settings tables: the tables as read
+    (``None`` when absent) and the filters built from them."""
+
+    _: KW_ONLY
+    unscented: dict[str, Any] | None = None
+    central_difference: dict[str, Any] | None = None
+    hinf: dict[str, Any] | None = None
+    homm: dict[str, Any] | None = None
+
+    def settings_of(self, name: str) -> dict[str, Any]:
+        """The stated settings of workbench filter ``name`` (its base filter's keywords)."""
+        out: dict[str, Any] = {}
+        for table in tables_of(base_filter(name)):
+            out.update(getattr(self, table) or {})
+        return out
+
+    def missing(self, names: Sequence[str]) -> tuple[str, list[str]] | None:
+        """The first settings table that filters among ``names`` need and the world does
+        not state, with those filters (``None`` when every one is stated)."""
+        for table in RULE_SETTINGS:
+            need = [n for n in names if table in tables_of(base_filter(n))]
+            if need and getattr(self, table) is None:
+                return table, need
+        return None
+
+    def make(self, name: str) -> Any:
+        """The filter of workbench name ``name``: its base filter with the stated settings."""
+        base = base_filter(name)
+        return make_filter(base, **self.settings_of(name))
+
+    def describe(self, name: str) -> str:
+        """``name``'s settings in one line (:func:`estimators.describe_settings`)."""
+        return describe_settings(self.make(name))
+
+
+TABLE_KEYS = {"unscented": "alpha, beta, kappa (alpha = 1, beta = 2, kappa = 0 is the cubature "
+              "point set; say which standard you take)",
+              "central_difference": "h (sqrt(3) is optimal for a Gaussian prior)",
+              "hinf": "gamma and on_failure", "homm": "skewness and kurtosis"}
+
+
+def check_settings(filters: Any, names: Sequence[str], where: ws.Where) -> None:
+    """Raise at ``[filters.<table>]`` when a filter among ``names`` needs a settings table
+    that ``filters`` (a :class:`TunedFilters` or its read values) does not state."""
+    if isinstance(filters, dict):
+        filters = TunedFilters(**{t: filters.get(t) for t in RULE_SETTINGS})
+    gap = filters.missing(names)
+    if gap is not None:
+        table, need = gap
+        raise where.child(table).error(
+            f"missing (required by {', '.join(need)}: state {TABLE_KEYS[table]})")

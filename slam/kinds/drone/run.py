@@ -79,7 +79,8 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
     ests = [run_drone_filter(log, name, association=fs.association,
                              gates=(fs.gate_accept, fs.gate_new), diverge_m=fs.divergence_m,
                              imu_noise_scale=fs.imu_noise_scale,
-                             sensor_noise_scale=fs.sensor_noise_scale, mode=fs.mode)
+                             sensor_noise_scale=fs.sensor_noise_scale, mode=fs.mode,
+                             filter_params=fs.settings_of(name))
             for name in filters]
     ests.append(imu_only(log, fs.imu_noise_scale))
     if reference:

@@ -401,6 +401,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     sx, sy, heading = start_pose(v["vehicle"], m["bounds_m"], m["waypoints"],
                                  root.child("vehicle"))
     check_local_mode(v["filters"], root.child("filters.mode"), DRONE_LOCAL_FILTERS)
+    wc.check_settings(v["filters"], v["filters"]["names"], root.child("filters"))
     ws.check_rules(RULES, v, root)
     world = ws.build(
         WORLD, v, name=name, source=source,

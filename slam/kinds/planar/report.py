@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from slam.kind import Deferred
+from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
 from slam.render.output import tum_header, tum_names, write_tum
 from slam.render.output import tum_text as tum_lines
@@ -69,8 +70,9 @@ def results_table(summary: dict[str, Any]) -> str:
 
 def text_table(summary: dict[str, Any]) -> str:
     """The compact terminal table, failure reasons and the ANEES band (≤ 100 columns)."""
-    return terminal_text(COMPACT, summary,
-                         [band_note(summary), "x / y error ranges and figures: report.html"])
+    table = terminal_text(COMPACT, summary,
+                          [band_note(summary), "x / y error ranges and figures: report.html"])
+    return table + "\n\n" + decision_text(summary)
 
 
 HOW_TO_READ = (
@@ -94,8 +96,9 @@ def planar_sections(summary: dict[str, Any]) -> list[Section]:
         summary, "Paper vs ours: vehicle position error ranges",
         "Ours are the minimum and maximum x / y error over every epoch of every run that did "
         "not diverge.")
-    return [Section("Results", RESULTS.header, result_rows(summary)), paper,
-            Section("How to read this", text=HOW_TO_READ)]
+    head, *rest = decision_sections(summary) or [None]
+    return [s for s in (head, Section("Results", RESULTS.header, result_rows(summary)), *rest,
+                        paper, Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 
 # --------------------------------------------------------------------------- TUM

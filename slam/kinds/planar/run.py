@@ -13,11 +13,14 @@ from dataclasses import replace
 
 import numpy as np
 
+from slam.decision import decide
 from slam.failures import run_reference
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import dead_reckoning, epochs_of, run_slam
+from slam.kinds.planar.variants import INVARIANT_BASES
+from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
 
 
@@ -34,7 +37,8 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
     scores, tracks = {}, {}
     for name in filters:
         r = run_slam(log, name, association=fs.association,
-                     gates=(fs.gate_accept, fs.gate_new), epoch_steps=period, mode=fs.mode)
+                     gates=(fs.gate_accept, fs.gate_new), epoch_steps=period, mode=fs.mode,
+                     filter_params=fs.settings_of(name))
         scores[name] = reduce_run(name, r.poses, r.pose_cov, truth, r.landmark_ids,
                                   r.landmarks, lms, r.nis, r.nis_dof, r.time_s, r.diverged,
                                   r.failure, nis_epoch=r.nis_epoch, map_series=r.map_series)
@@ -88,10 +92,11 @@ def _reference(log, steps, truth, scores: dict, tracks: dict | None) -> None:
 
 def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs: int,
                      seed: int) -> dict:
-    """The ``summary.json`` dict of a planar SLAM campaign."""
+    """The ``summary.json`` dict of a planar SLAM campaign, with the paired ranking of the
+    filters by position and landmark MSE and the headline (:func:`slam.decision.decide`)."""
     names = filters + [ODOMETRY, REFERENCE]
     entries = {n: summarize([o.scores[n] for o in outcomes]) for n in names}
-    return {
+    summary = {
         "world": world.name,
         "kind": world.kind,
         "runs": runs,
@@ -102,3 +107,15 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
         "reference": {REFERENCE: entries[REFERENCE]},
         "paper": world.paper,
     }
+    ranked = filters + [REFERENCE]
+    metrics = [
+        Metric("position", "position", "m", {n: per_run(outcomes, n, lambda s: float(
+            per_run_mse(s.err[None, :, :2])[0])) for n in ranked}),
+        Metric("landmarks", "landmarks (final)", "m", {n: per_run(outcomes, n, lambda s: float(
+            np.mean(s.lm_err**2)) if s.lm_err.size else np.nan) for n in ranked}),
+    ]
+    fs = world.filters
+    return decide(summary, metrics, filters=filters,
+                  settings={n: fs.settings_of(n) for n in filters},
+                  settings_text={n: fs.describe(n) for n in filters},
+                  variants={b: f"{b}-inv" for b in INVARIANT_BASES})

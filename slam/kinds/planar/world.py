@@ -124,8 +124,8 @@ class ControlNoise:
 
 
 @dataclass(frozen=True)
-class FilterSpec:
-    """Which filters to run and how they associate data."""
+class FilterSpec(wc.TunedFilters):
+    """Which filters to run, their settings tables, and how they associate data."""
 
     names: tuple[str, ...] = ("ekf", "srckf", "srukf", "srcdkf")
     association: str = "known"
@@ -157,6 +157,7 @@ def filters_section(modes: tuple[str, ...], into: type, *, gate_accept: float,
             "gate_accept": ws.Number(ws.positive(1_000.0), default=gate_accept),
             "gate_new": ws.Number(ws.positive(10_000.0), default=gate_new),
             "mode": ws.String(choices=modes, default="joint"),
+            **wc.settings_tables(),
             **extra,
         },
         into=into,
@@ -387,6 +388,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     points = _map_points(m, base, root.child("map"))
     start = start_pose(veh, m["bounds_m"], points["waypoints"], root.child("vehicle"))
     check_local_mode(v["filters"], root.child("filters.mode"))
+    wc.check_settings(v["filters"], v["filters"]["names"], root.child("filters"))
     ws.check_rules((GATES,), v, root)
     sigma = (veh["initial_sigma_xy_m"], veh["initial_sigma_xy_m"],
              veh["initial_sigma_heading_deg"])

@@ -41,7 +41,8 @@ def run_once(world: RecordedWorld, run: int, seed_seq: np.random.SeedSequence,
     :class:`~slam.mapping.problem.SlamResult` (:func:`~slam.kinds.recorded.tracks.log_tracks`)
     and ``times`` the chain indices of the poses (a log has no clock)."""
     kept: dict[str, Any] | None = {} if keep_tracks else None
-    s = run_log(world.log, list(filters), mode=world.filters.mode, keep=kept)
+    s = run_log(world.log, list(filters), mode=world.filters.mode, keep=kept,
+                settings={n: world.filters.settings_of(n) for n in filters})
     scores = {name: RecordedScores(name, group, entry, bool(entry.get("diverged", False)),
                                    entry.get("failure"))
               for group in _GROUPS for name, entry in s[group].items()}

@@ -78,14 +78,17 @@ def rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
 
 def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FILTERS, *,
             mode: str = "local", max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
-            progress=None, keep: dict[str, Any] | None = None) -> dict[str, Any]:
+            progress=None, keep: dict[str, Any] | None = None,
+            settings: dict[str, dict[str, Any]] | None = None) -> dict[str, Any]:
     """Run the filters and the smoother on ``log``; the ``summary.json`` dict.  With
     ``keep`` (a dict) the raw outputs are left in it for the report: ``results`` (filter
     name -> :class:`~slam.mapping.problem.SlamResult`) and ``reference`` (the smoother's
-    :class:`~slam.kinds.recorded.reference.RecordedReference` or None)."""
+    :class:`~slam.kinds.recorded.reference.RecordedReference` or None).  ``settings``
+    maps a filter name to its settings (:func:`estimators.make_filter`'s keywords)."""
     results = {}
     for name in filters:
-        results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps)
+        results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps,
+                                     filter_params=(settings or {}).get(name))
         if progress:
             progress(1)
     ref, failure = run_reference(smooth_recorded, log)

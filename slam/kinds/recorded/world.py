@@ -5,24 +5,34 @@ them)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from estimators.rules import JULIER_KAPPA
 from slam.kinds.recorded.log import (
     DEFAULT_FILTERS,
     LogFormatError,
     OdometryLog,
     read_odometry_log,
 )
+from worlds.common import TunedFilters
 
 KIND = "recorded-log"
 MODES = ("local", "joint")
 
 
+LOG_SETTINGS = {"unscented": {"alpha": 1.0, "beta": 0.0, "kappa": JULIER_KAPPA},
+                "central_difference": {"h": math.sqrt(3.0)}}
+"""The settings of the filters run on a recorded log (there is no world file to state
+them; the report prints them): Julier's original unscented set (alpha = 1, beta = 2,
+kappa = 0 would be the cubature point set) and the central-difference step sqrt(3)."""
+
+
 @dataclass(frozen=True)
-class RecordedFilters:
-    """The filters run on the log and their mode."""
+class RecordedFilters(TunedFilters):
+    """The filters run on the log, their mode and settings (:data:`LOG_SETTINGS`)."""
 
     names: tuple[str, ...]
     mode: str
@@ -52,4 +62,5 @@ def open_log(path: Path, filters: Sequence[str] | None = None, mode: str | None 
         raise LogFormatError(str(path), None, "holds a single pose (no ODOMETRY record): "
                              "nothing to filter or smooth")
     return RecordedWorld(Path(path).stem, str(path), log,
-                         RecordedFilters(tuple(filters or DEFAULT_FILTERS), mode or MODES[0]))
+                         RecordedFilters(tuple(filters or DEFAULT_FILTERS), mode or MODES[0],
+                                         **LOG_SETTINGS))

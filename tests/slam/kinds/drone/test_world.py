@@ -102,6 +102,8 @@ def _to_toml(doc: dict[str, Any]) -> str:
             return "true" if v else "false"
         if isinstance(v, list):
             return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k} = {val(x)}" for k, x in v.items()) + "}"
         return repr(v)
 
     lines, tables = [], []

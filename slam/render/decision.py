@@ -1,0 +1,78 @@
+"""The decision part of every kind's report and terminal output: the headline, one ranking
+table per headline metric (rank, RMSE, paired ΔMSE ± s.e. against the best, its z and
+verdict) and the filters' settings, from the ``ranking`` / ``headline`` / ``settings_text``
+entries :func:`slam.decision.decide` put in the summary."""
+
+from __future__ import annotations
+
+import textwrap
+from typing import Any
+
+from slam.render.document import Section
+from slam.render.tables import MISSING, TERMINAL_WIDTH, num, plain_table
+
+HEADER = ("rank", "filter", "RMSE", "ΔMSE vs best (± s.e.)", "ΔRMSE", "z", "verdict")
+
+
+def _cells(name: str, row: dict[str, Any], unit: str) -> list[str]:
+    if row["verdict"] == "best":
+        delta, pct, z = "best", "", ""
+    else:
+        delta = f"{row['delta_mse']:+.3g} ± {row['delta_se']:.2g} {unit}²"
+        pct = f"{row['delta_percent']:+.1f} %"
+        z = num(row.get("z"), ".1f")
+    return [str(row["rank"]), name, f"{row['rmse']:#.4g} {unit}", delta, pct, z, row["verdict"]]
+
+
+def ranking_rows(block: dict[str, Any]) -> list[list[str]]:
+    """The ranking table of one metric (:data:`HEADER`), best first."""
+    rows = block.get("rows") or {}
+    return [_cells(n, rows[n], block["unit"]) for n in block.get("order", [])]
+
+
+def _title(block: dict[str, Any]) -> str:
+    return (f"{block['label']}: paired ranking over {block.get('runs', 0)} runs "
+            f"(significant: ΔMSE > {block['level_se']:g} s.e.; separated: > "
+            f"{block['separated_se']:g} s.e.)")
+
+
+def settings_rows(summary: dict[str, Any]) -> list[list[str]]:
+    """``[filter, settings]`` of every filter that has tuning constants."""
+    return [[n, e["settings_text"]] for n, e in (summary.get("filters") or {}).items()
+            if e.get("settings_text")]
+
+
+def decision_sections(summary: dict[str, Any]) -> list[Section]:
+    """The report's decision sections: the headline, a ranking table per metric, the
+    filters' settings."""
+    out: list[Section] = []
+    if summary.get("headline"):
+        out.append(Section("Decision", text=summary["headline"]))
+    for block in (summary.get("ranking") or {}).values():
+        if "rows" in block:
+            out.append(Section(f"Ranking: {_title(block)}", HEADER, ranking_rows(block)))
+        else:
+            out.append(Section(f"Ranking: {block['label']}",
+                               text=f"No ranking: {block.get('reason', MISSING)}."))
+    rows = settings_rows(summary)
+    if rows:
+        out.append(Section("Filter settings", ("filter", "settings"), rows, key_value=True,
+                           text="Every tuning constant is stated in the world file "
+                                "([filters.unscented], [filters.central_difference], ...)."))
+    return out
+
+
+def decision_text(summary: dict[str, Any], width: int = TERMINAL_WIDTH) -> str:
+    """The terminal's decision block: each ranking as a compact table, the filters'
+    settings and the headline, wrapped to ``width`` columns."""
+    lines: list[str] = []
+    for block in (summary.get("ranking") or {}).values():
+        if "rows" not in block:
+            continue
+        lines += textwrap.wrap(_title(block), width) + [plain_table(HEADER, ranking_rows(block)),
+                                                        ""]
+    for name, text in settings_rows(summary):
+        lines += textwrap.wrap(f"settings of {name}: {text}", width, subsequent_indent="  ")
+    if summary.get("headline"):
+        lines += [""] + textwrap.wrap(summary["headline"], width)
+    return "\n".join(lines)
