@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .finite import require_finite
-from .linalg import Array, chol, kalman_gain
+from .linalg import Array, chol, kalman_gain, matvec, nis_of, swap
 from .linearise import linearise_measurement, linearise_transition
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from .partitioned import BlockLayout, EkfBlockSteps
@@ -42,10 +42,10 @@ def ekf_predict(belief: Gaussian, model: Transition, u: Any = None, eps: float =
     space = model.space or belief.space
     F, G, y = linearise_transition(model, m, u, belief.space, space, eps)
     if G is None:
-        Pn = F @ P @ F.T + model.noise.cov
+        Pn = F @ P @ swap(F) + model.noise.cov
     else:
-        Pn = F @ P @ F.T + G @ model.noise.cov @ G.T
-    return Gaussian(y, 0.5 * (Pn + Pn.T), space)
+        Pn = F @ P @ swap(F) + G @ model.noise.cov @ swap(G)
+    return Gaussian(y, 0.5 * (Pn + swap(Pn)), space)
 
 
 def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
@@ -55,15 +55,15 @@ def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
     m, P = belief.mean, belief.cov
     H, zhat = linearise_measurement(model, m, belief.space, eps)
     nu = model.space.local(zhat, np.asarray(z, dtype=float))
-    PHt = P @ H.T
+    PHt = P @ swap(H)
     Pzz = H @ PHt + model.noise.cov
-    Szz = chol(0.5 * (Pzz + Pzz.T))
+    Szz = chol(0.5 * (Pzz + swap(Pzz)))
     K = kalman_gain(PHt, Szz)
     A = np.eye(belief.dim) - K @ H
-    Pn = A @ P @ A.T + K @ model.noise.cov @ K.T
-    w = np.linalg.solve(Szz, nu)
-    post = Gaussian(belief.space.retract(m, K @ nu), 0.5 * (Pn + Pn.T), belief.space)
-    return post, Innovation(nu, Szz, float(w @ w))
+    Pn = A @ P @ swap(A) + K @ model.noise.cov @ swap(K)
+    w = np.linalg.solve(Szz, nu) if nu.ndim == 1 else np.linalg.solve(Szz, nu[..., None])[..., 0]
+    post = Gaussian(belief.space.retract(m, matvec(K, nu)), 0.5 * (Pn + swap(Pn)), belief.space)
+    return post, Innovation(nu, Szz, nis_of(w))
 
 
 @dataclass(frozen=True)

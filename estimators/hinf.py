@@ -117,7 +117,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NoReturn
 
 import numpy as np
 
-from .linalg import Array, NotPositiveDefiniteError, chol, solve_lower, svd_factor, tria
+from .linalg import Array, NotPositiveDefiniteError, chol, solve_lower, svd_factor, swap, tria
 from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Transition
 from .rules import PointRule
 from .sigma import Form, SigmaPointFilter, SqrtMethod, sigma_update
@@ -193,9 +193,13 @@ def riccati_min_eigenvalue(form: Form, kalman_posterior: Array, gamma: float) ->
     """
     _check_gamma(gamma)
     if form == "dense":
-        lam = np.linalg.eigvalsh(0.5 * (kalman_posterior + kalman_posterior.T))
+        lam = np.linalg.eigvalsh(0.5 * (kalman_posterior + swap(kalman_posterior)))
     else:
         lam = np.linalg.svd(kalman_posterior, compute_uv=False) ** 2
+    if lam.ndim > 1:  # a batch: one value per member
+        with np.errstate(divide="ignore"):
+            inv = np.where(lam != 0.0, 1.0 / np.where(lam != 0.0, lam, 1.0), np.inf)
+        return np.min(inv, axis=-1) - 1.0 / gamma**2
     lam = lam[lam != 0.0]
     if lam.size == 0:
         return float("inf")
@@ -209,24 +213,24 @@ def hinf_posterior(form: Form, kalman_posterior: Array, gamma: float) -> Array:
     first; a Cholesky failure on round-off at the boundary counts as a failure too).
     """
     xi_min = riccati_min_eigenvalue(form, kalman_posterior, gamma)
-    if not xi_min > 0.0:
-        raise RiccatiConditionError(gamma, xi_min)
+    if not np.all(xi_min > 0.0):
+        raise RiccatiConditionError(gamma, float(np.min(xi_min)))
     if np.isinf(gamma):
         return kalman_posterior
-    n = kalman_posterior.shape[0]
+    n = kalman_posterior.shape[-1]
     try:
         if form == "dense":
             P = kalman_posterior
             Lg = chol(gamma**2 * np.eye(n) - P)
             W = solve_lower(Lg, P)  # Lg⁻¹ P:  P (γ²I − P)⁻¹ P = Wᵀ W
-            out = P + W.T @ W
-            return 0.5 * (out + out.T)
+            out = P + swap(W) @ W
+            return 0.5 * (out + swap(out))
         S = kalman_posterior
-        M = np.eye(n) - (S.T @ S) / gamma**2
-        L = chol(0.5 * (M + M.T))
+        M = np.eye(n) - (swap(S) @ S) / gamma**2
+        L = chol(0.5 * (M + swap(M)))
     except NotPositiveDefiniteError as exc:
-        raise RiccatiConditionError(gamma, xi_min) from exc
-    F = solve_lower(L, S.T).T  # S L⁻ᵀ
+        raise RiccatiConditionError(gamma, float(np.min(xi_min))) from exc
+    F = swap(solve_lower(L, swap(S)))  # S L⁻ᵀ
     return svd_factor(F) if form == "svd" else tria(F)
 
 
@@ -244,12 +248,32 @@ def hinf_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
     _check_gamma(gamma)
     post, inn = sigma_update(rule, form, belief, model, z, method)
     kalman = post.cov if form == "dense" else post.sqrt  # type: ignore[union-attr]
+    if kalman.ndim > 2:
+        return _hinf_batch(form, post, inn, kalman, gamma, on_failure)
     try:
         bound = hinf_posterior(form, kalman, gamma)
     except RiccatiConditionError:
         if on_failure == "raise":
             raise
         return post, replace(inn, hinf_fallback=True)
+    if form == "dense":
+        return Gaussian(post.mean, bound, post.space), inn
+    return SqrtGaussian(post.mean, bound, post.space), inn
+
+
+def _hinf_batch(form: Form, post: Belief, inn: Innovation, kalman: Array, gamma: float,
+                on_failure: OnFailure) -> tuple[Belief, Innovation]:
+    """:func:`hinf_update`'s bound for a batch: each member whose Riccati condition fails
+    keeps its Kalman posterior and is flagged in ``hinf_fallback`` (an array), or the call
+    raises (``on_failure="raise"``)."""
+    ok = np.asarray(riccati_min_eigenvalue(form, kalman, gamma) > 0.0)
+    if not ok.all() and on_failure == "raise":
+        raise RiccatiConditionError(gamma, float(np.min(riccati_min_eigenvalue(form, kalman,
+                                                                                gamma))))
+    bound = np.array(kalman, copy=True)
+    if ok.any():
+        bound[ok] = hinf_posterior(form, kalman[ok], gamma)
+    inn = replace(inn, hinf_fallback=~ok)
     if form == "dense":
         return Gaussian(post.mean, bound, post.space), inn
     return SqrtGaussian(post.mean, bound, post.space), inn

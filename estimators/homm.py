@@ -72,7 +72,7 @@ from functools import lru_cache
 import numpy as np
 
 from .linalg import Array
-from .rules import Factor
+from .rules import Factor, signed_factor
 
 __all__ = ["HighOrderMoment", "augmented_rule", "standardised_moments"]
 
@@ -135,12 +135,8 @@ class HighOrderMoment:
 
     def factor(self, D: Array) -> Factor:
         """:math:`C = [\\sqrt{w_i} D_i]_{i \\ge 1}`; centre :math:`\\sqrt{|w_0|} D_0`, signed."""
-        n = (D.shape[0] - 1) // 2
-        _, w = self.points(n)
-        C = D[1:].T * np.sqrt(w[1:])
-        if w[0] == 0.0:
-            return Factor(C)
-        return Factor(C, np.sqrt(abs(w[0])) * D[0], float(np.sign(w[0])))
+        n = (D.shape[-2] - 1) // 2
+        return signed_factor(D, self.points(n)[1])
 
 
 def augmented_rule(n: int, m: int, skewness: float | tuple[float, ...] = 0.0,

@@ -28,9 +28,11 @@ def tria(A: Array) -> Array:
 
     Parameters
     ----------
-    A : (n, k) array
+    A : (n, k) array, or (..., n, k) for a batch (stacked QR, :func:`_tria_batch`)
         Any factor; ``k < n`` gives a singular (zero-padded) result.
     """
+    if np.ndim(A) > 2:
+        return _tria_batch(np.asarray(A, dtype=float))
     n, k = A.shape
     qr, _, _, info = lapack.dgeqrf(np.asarray(A, dtype=float).T)
     if info != 0:
@@ -44,6 +46,52 @@ def tria(A: Array) -> Array:
     return S
 
 
+def _tria_batch(A: Array) -> Array:
+    """:func:`tria` of every matrix of a stack (..., n, k) by one stacked QR."""
+    n, k = A.shape[-2:]
+    R = np.linalg.qr(np.swapaxes(A, -1, -2), mode="r")  # (..., min(k, n), n)
+    S = np.swapaxes(R, -1, -2)
+    if S.shape[-1] < n:
+        pad = np.zeros(S.shape[:-1] + (n - S.shape[-1],))
+        S = np.concatenate([S, pad], axis=-1)
+    d = np.diagonal(S, axis1=-2, axis2=-1)
+    return S * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
+
+
+def swap(A: Array) -> Array:
+    """The transpose of the last two axes (a batch of matrices' ``.T``)."""
+    return np.swapaxes(A, -1, -2)
+
+
+def outer(a: Array, b: Array) -> Array:
+    """``np.outer`` of the last axes, batched: (..., n), (..., m) -> (..., n, m)."""
+    if a.ndim == 1 and b.ndim == 1:
+        return np.outer(a, b)
+    return a[..., :, None] * b[..., None, :]
+
+
+def matvec(A: Array, v: Array) -> Array:
+    """``A @ v`` for a matrix and a vector, batched over leading axes of either."""
+    if A.ndim == 2 and v.ndim == 1:
+        return A @ v
+    return (A @ v[..., None])[..., 0]
+
+
+def nis_of(w: Array) -> float | Array:
+    """``w · w`` of whitened innovations ``w`` (nz,) -> float, or (..., nz) -> (...,)."""
+    if w.ndim == 1:
+        return float(w @ w)
+    return np.einsum("...i,...i->...", w, w)
+
+
+def hstack(blocks: list[Array]) -> Array:
+    """Matrices side by side (``np.hstack``), each broadcast to the batch shape of all."""
+    if all(b.ndim == 2 for b in blocks):
+        return np.hstack(blocks)
+    lead = np.broadcast_shapes(*(b.shape[:-2] for b in blocks))
+    return np.concatenate([np.broadcast_to(b, lead + b.shape[-2:]) for b in blocks], axis=-1)
+
+
 @lru_cache(maxsize=64)
 def _lower_ones(n: int, m: int) -> Array:
     mask = np.tril(np.ones((n, m)))
@@ -52,7 +100,16 @@ def _lower_ones(n: int, m: int) -> Array:
 
 
 def solve_lower(L: Array, B: Array, transpose: bool = False) -> Array:
-    """Solve ``L X = B`` (or ``Lᵀ X = B``) for lower-triangular ``L`` (LAPACK ``trtrs``)."""
+    """Solve ``L X = B`` (or ``Lᵀ X = B``) for lower-triangular ``L`` (LAPACK ``trtrs``;
+    a batch ``L`` (..., n, n) with ``B`` (..., n, k) or (..., n) by a stacked solve)."""
+    if np.ndim(L) > 2:
+        M = swap(L) if transpose else L
+        d = np.diagonal(L, axis1=-2, axis2=-1)
+        if not np.all(d != 0.0):
+            raise NotPositiveDefiniteError("triangular factor is singular (zero diagonal)")
+        if np.ndim(B) == np.ndim(L) - 1:
+            return np.linalg.solve(M, B[..., None])[..., 0]
+        return np.linalg.solve(M, B)
     X, info = lapack.dtrtrs(L, B, lower=1, trans=1 if transpose else 0)
     if info != 0:
         raise NotPositiveDefiniteError(f"triangular factor is singular (LAPACK info {info})")
@@ -60,8 +117,9 @@ def solve_lower(L: Array, B: Array, transpose: bool = False) -> Array:
 
 
 def kalman_gain(Pxz: Array, Szz: Array) -> Array:
-    r""":math:`K = P_{xz} (S_{zz} S_{zz}^\top)^{-1}` with two triangular solves (no inverse)."""
-    return solve_lower(Szz, solve_lower(Szz, Pxz.T), transpose=True).T
+    r""":math:`K = P_{xz} (S_{zz} S_{zz}^\top)^{-1}` with two triangular solves (no inverse);
+    batched over leading axes."""
+    return swap(solve_lower(Szz, solve_lower(Szz, swap(Pxz)), transpose=True))
 
 
 def qr_complete(M: Array) -> tuple[Array, Array]:
@@ -116,6 +174,8 @@ def chol_update(S: Array, V: Array, sign: float = 1.0, *,
     NotPositiveDefiniteError
         If a downdate would make the matrix indefinite.
     """
+    if np.ndim(S) > 2:
+        return _chol_update_batch(np.asarray(S, dtype=float), np.asarray(V, dtype=float), sign)
     V = np.asarray(V, dtype=float).reshape(S.shape[0], -1)
     if method == "sweep":
         return chol_update_sweep(S, V, sign)
@@ -142,6 +202,37 @@ def chol_update(S: Array, V: Array, sign: float = 1.0, *,
                 col = (L[k + 1:, k] - s * x[k + 1:]) / c
                 x[k + 1:] = c * x[k + 1:] - s * col
                 L[k + 1:, k] = col
+    return L
+
+
+def _chol_update_batch(S: Array, V: Array, sign: float) -> Array:
+    """:func:`chol_update` (``"qr"``) of a stack: ``S`` (..., n, n), ``V`` (..., n) or
+    (..., n, k); the downdate's row loop runs once for the whole stack (one failing
+    member raises for all: the batched filter loop then finds it, :mod:`estimators.batch`)."""
+    n = S.shape[-1]
+    if V.ndim == S.ndim - 1:
+        V = V[..., None]
+    V = np.broadcast_to(V, S.shape[:-2] + V.shape[-2:])
+    if sign > 0:
+        return tria(np.concatenate([S, V], axis=-1))
+    L = np.array(S, dtype=float, copy=True)
+    V = np.array(V, dtype=float, copy=True)
+    for j in range(V.shape[-1]):
+        x = V[..., j]
+        for k in range(n):
+            lkk = L[..., k, k]
+            r2 = lkk * lkk - x[..., k] * x[..., k]
+            if not np.all((r2 > 0.0) & (lkk > 0.0)):
+                raise NotPositiveDefiniteError(
+                    f"Cholesky downdate lost positive definiteness at row {k}")
+            r = np.sqrt(r2)
+            c = (r / lkk)[..., None]
+            sk = (x[..., k] / lkk)[..., None]
+            L[..., k, k] = r
+            if k + 1 < n:
+                col = (L[..., k + 1:, k] - sk * x[..., k + 1:]) / c
+                x[..., k + 1:] = c * x[..., k + 1:] - sk * col
+                L[..., k + 1:, k] = col
     return L
 
 
@@ -284,20 +375,23 @@ def _chol_or_raise(M: Array, row: int) -> Array:
 def svd_factor(A: Array) -> Array:
     r"""Square factor :math:`U \Sigma` (n, n) with :math:`(U\Sigma)(U\Sigma)^\top = A A^\top`.
 
-    From the thin SVD :math:`A = U \Sigma V^\top` (the SVD-CKF's factorisation).
+    From the thin SVD :math:`A = U \Sigma V^\top` (the SVD-CKF's factorisation); batched
+    over leading axes.
     """
-    n, k = A.shape
+    n, k = A.shape[-2:]
     U, s, _ = np.linalg.svd(A, full_matrices=False)
-    F = U * s
-    if F.shape[1] < n:
-        F = np.hstack([F, np.zeros((n, n - F.shape[1]))])
+    F = U * s[..., None, :]
+    if F.shape[-1] < n:
+        F = np.concatenate([F, np.zeros(F.shape[:-1] + (n - F.shape[-1],))], axis=-1)
     return F
 
 
 def block_diag2(A: Array, B: Array) -> Array:
-    """Block-diagonal ``[[A, 0], [0, B]]`` for two square blocks."""
-    n, m = A.shape[0], B.shape[0]
-    out = np.zeros((n + m, n + m))
-    out[:n, :n] = A
-    out[n:, n:] = B
+    """Block-diagonal ``[[A, 0], [0, B]]`` for two square blocks (either may carry leading
+    batch axes; the other is broadcast)."""
+    n, m = A.shape[-1], B.shape[-1]
+    lead = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    out = np.zeros(lead + (n + m, n + m))
+    out[..., :n, :n] = A
+    out[..., n:, n:] = B
     return out

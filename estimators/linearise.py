@@ -29,7 +29,7 @@ def numerical_jacobian(fn: Callable[[Array, Array], Array], x: Array, space_in: 
     ----------
     fn : callable
         ``fn(X (m, nx), W (m, nw)) -> (m, ny)``.
-    x : (nx,) point where to differentiate (``W = 0``).
+    x : (nx,) point where to differentiate (``W = 0``), or (..., nx) for a batch.
 
     Returns
     -------
@@ -39,11 +39,19 @@ def numerical_jacobian(fn: Callable[[Array, Array], Array], x: Array, space_in: 
     d = space_in.dim
     n = d + nw
     steps = np.vstack([eps * np.eye(n), -eps * np.eye(n)])
-    Y = fn(space_in.retract(x, steps[:, :d]), steps[:, d:])
-    y0 = fn(x[None, :], np.zeros((1, nw)))[0]
+    if x.ndim == 1:
+        Y = fn(space_in.retract(x, steps[:, :d]), steps[:, d:])
+        y0 = fn(x[None, :], np.zeros((1, nw)))[0]
+        require_finite("model output", Y, y0)
+        dY = space_out.local(y0, Y)
+        return ((dY[:n] - dY[n:]) / (2.0 * eps)).T, y0
+    lead = x.shape[:-1]  # a batch of linearisation points
+    Y = fn(space_in.retract(x[..., None, :], steps[:, :d]),
+           np.broadcast_to(steps[:, d:], lead + (2 * n, nw)))
+    y0 = fn(x[..., None, :], np.zeros(lead + (1, nw)))[..., 0, :]
     require_finite("model output", Y, y0)
-    dY = space_out.local(y0, Y)
-    return ((dY[:n] - dY[n:]) / (2.0 * eps)).T, y0
+    dY = space_out.local(y0[..., None, :], Y)
+    return np.swapaxes((dY[..., :n, :] - dY[..., n:, :]) / (2.0 * eps), -1, -2), y0
 
 
 def linearise_transition(model: Transition, x: Array, u: Any, space_in: Space,
@@ -68,15 +76,15 @@ def _linearise_transition(model: Transition, x: Array, u: Any, space_in: Space,
                           space_out: Space, eps: float) -> tuple[Array, Array | None, Array]:
     if model.additive:
         if model.jacobian is not None:
-            return model.jacobian(x, u), None, model.f(x[None, :], u)[0]
+            return model.jacobian(x, u), None, model.f(x[..., None, :], u)[..., 0, :]
         F, y = numerical_jacobian(lambda X, W: model.f(X, u), x, space_in, space_out, 0, eps)
         return F, None, y
     nw = model.noise.dim
     if model.jacobian is not None:
         F, G = model.jacobian(x, u)
-        return F, G, model.f(x[None, :], u, np.zeros((1, nw)))[0]
+        return F, G, model.f(x[..., None, :], u, np.zeros(x.shape[:-1] + (1, nw)))[..., 0, :]
     J, y = numerical_jacobian(lambda X, W: model.f(X, u, W), x, space_in, space_out, nw, eps)
-    return J[:, :space_in.dim], J[:, space_in.dim:], y
+    return J[..., :space_in.dim], J[..., space_in.dim:], y
 
 
 def linearise_measurement(model: Measurement, x: Array, space: Space, eps: float = 1e-6
@@ -86,7 +94,7 @@ def linearise_measurement(model: Measurement, x: Array, space: Space, eps: float
     ``model.jacobian`` is given, else :func:`numerical_jacobian`; a non-finite output
     raises :class:`~estimators.finite.NonFiniteError`."""
     if model.jacobian is not None:
-        H, zhat = model.jacobian(x), model.h(x[None, :])[0]
+        H, zhat = model.jacobian(x), model.h(x[..., None, :])[..., 0, :]
     else:
         H, zhat = numerical_jacobian(lambda X, W: model.h(X), x, space, model.space, 0, eps)
     require_finite("measurement model output", zhat)

@@ -69,6 +69,11 @@ def set_epoch_hook(hook: Callable[[], None] | None) -> None:
     _epoch_hook = hook
 
 
+def epoch_hook() -> Callable[[], None] | None:
+    """The hook :func:`set_epoch_hook` installed (``None``: none)."""
+    return _epoch_hook
+
+
 class Divergence(ArithmeticError):
     """Raised by a problem's ``check`` hook: the run has left its bounds."""
 

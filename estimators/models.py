@@ -150,7 +150,11 @@ class Noise:
 
 @dataclass(frozen=True)
 class Gaussian:
-    """Belief with dense covariance; ``mean`` in ambient, ``cov`` in tangent coordinates."""
+    """Belief with dense covariance; ``mean`` in ambient, ``cov`` in tangent coordinates.
+
+    A batch of beliefs (one per Monte Carlo run) has leading axes: ``mean`` (..., n),
+    ``cov`` (..., d, d); every filter step accepts and returns such a batch
+    (:mod:`estimators.batch`)."""
 
     mean: Array
     cov: Array
@@ -162,12 +166,15 @@ class Gaussian:
 
     def cov_block(self, rows: Array) -> Array:
         """Covariance of the tangent coordinates ``rows`` (a square block of ``cov``)."""
-        return self.cov[np.ix_(rows, rows)]
+        if self.cov.ndim == 2:
+            return self.cov[np.ix_(rows, rows)]
+        return self.cov[..., rows, :][..., rows]
 
 
 @dataclass(frozen=True)
 class SqrtGaussian:
-    """Belief stored as a covariance factor only (``cov`` is derived on request)."""
+    """Belief stored as a covariance factor only (``cov`` is derived on request); a batch
+    has leading axes (``mean`` (..., n), ``sqrt`` (..., d, d))."""
 
     mean: Array
     sqrt: Array
@@ -175,7 +182,7 @@ class SqrtGaussian:
 
     @property
     def cov(self) -> Array:
-        return self.sqrt @ self.sqrt.T
+        return self.sqrt @ np.swapaxes(self.sqrt, -1, -2)
 
     @property
     def dim(self) -> int:
@@ -184,8 +191,8 @@ class SqrtGaussian:
     def cov_block(self, rows: Array) -> Array:
         """Covariance of the tangent coordinates ``rows``, from those rows of the
         factor only (the joint covariance is never formed)."""
-        S = self.sqrt[rows]
-        return S @ S.T
+        S = self.sqrt[..., rows, :]
+        return S @ np.swapaxes(S, -1, -2)
 
 
 Belief = Gaussian | SqrtGaussian
@@ -269,4 +276,4 @@ class Innovation:
 
     @property
     def cov(self) -> Array:
-        return self.sqrt_cov @ self.sqrt_cov.T
+        return self.sqrt_cov @ np.swapaxes(self.sqrt_cov, -1, -2)

@@ -32,6 +32,15 @@ class Factor:
     sign: float = 1.0
 
 
+def signed_factor(D: Array, w: Array) -> Factor:
+    """The factor of deviations ``D`` (..., 2n+1, d) with weights ``w`` (2n+1,) whose centre
+    weight ``w[0]`` may be negative: ``C = [√w_i D_i]_{i≥1}``, centre ``√|w_0| D_0`` signed."""
+    C = np.swapaxes(D[..., 1:, :], -1, -2) * np.sqrt(w[1:])
+    if w[0] == 0.0:
+        return Factor(C)
+    return Factor(C, np.sqrt(abs(w[0])) * D[..., 0, :], float(np.sign(w[0])))
+
+
 def _readonly(*arrays: Array) -> tuple[Array, ...]:
     for a in arrays:
         a.setflags(write=False)
@@ -60,7 +69,7 @@ class Cubature:
         return _symmetric_points(n, float(np.sqrt(n)), False), _cubature_weights(n)
 
     def factor(self, D: Array) -> Factor:
-        return Factor(D.T * np.sqrt(1.0 / D.shape[0]))
+        return Factor(np.swapaxes(D, -1, -2) * np.sqrt(1.0 / D.shape[-2]))
 
 
 @lru_cache(maxsize=256)
@@ -144,12 +153,8 @@ class Unscented:
         return _ut_weights(n, lam, 1.0 - self.alpha**2 + self.beta)
 
     def factor(self, D: Array) -> Factor:
-        n = (D.shape[0] - 1) // 2
-        wc = self.weights_c(n)
-        C = D[1:].T * np.sqrt(wc[1:])
-        if wc[0] == 0.0:
-            return Factor(C)
-        return Factor(C, np.sqrt(abs(wc[0])) * D[0], float(np.sign(wc[0])))
+        n = (D.shape[-2] - 1) // 2
+        return signed_factor(D, self.weights_c(n))
 
 
 @lru_cache(maxsize=256)
@@ -193,12 +198,12 @@ class CentralDifference:
         return _symmetric_points(n, self.h, True), _cd_weights(n, self.h)
 
     def factor(self, D: Array) -> Factor:
-        n = (D.shape[0] - 1) // 2
+        n = (D.shape[-2] - 1) // 2
         h = self.h
-        plus, minus = D[1:n + 1], D[n + 1:]
+        plus, minus = D[..., 1:n + 1, :], D[..., n + 1:, :]
         first = (plus - minus) / (2.0 * h)
-        second = (plus + minus - 2.0 * D[0]) * (np.sqrt(h * h - 1.0) / (2.0 * h * h))
-        return Factor(np.vstack([first, second]).T)
+        second = (plus + minus - 2.0 * D[..., :1, :]) * (np.sqrt(h * h - 1.0) / (2.0 * h * h))
+        return Factor(np.swapaxes(np.concatenate([first, second], axis=-2), -1, -2))
 
 
 @lru_cache(maxsize=256)

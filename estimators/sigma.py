@@ -43,7 +43,11 @@ from .linalg import (
     NotPositiveDefiniteError,
     chol,
     kalman_gain,
+    matvec,
+    nis_of,
+    outer,
     solve_lower,
+    swap,
 )
 from .models import Belief, Gaussian, Innovation, Measurement, Noise, SqrtGaussian, Transition
 from .partitioned import BlockLayout, SqrtSigmaBlockSteps, refuse_partitioned
@@ -78,41 +82,42 @@ def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition
     require_finite("transition output", Y)
     space = model.space or belief.space
     mean = space.mean(Y, wm)
-    fac = rule.factor(space.local(mean, Y))
+    fac = rule.factor(space.local(mean[..., None, :], Y))
     cov = _covariance(form, fac, model.noise if model.additive else None)
     return _belief(form, mean, cov, space)
 
 
 def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
                  z: Array, method: SqrtMethod = "cholesky") -> tuple[Belief, Innovation]:
-    """Measurement update with points redrawn from ``belief``."""
+    """Measurement update with points redrawn from ``belief`` (a batch of beliefs when its
+    mean has leading axes; ``z`` then (..., nz))."""
     require_finite("measurement", z)
     X, _, dX, wm = draw(rule, belief, None, method)
     Z = model.h(X)
     require_finite("measurement model output", Z)
     zspace = model.space
     zhat = zspace.mean(Z, wm)
-    fac = rule.factor(np.hstack([dX, zspace.local(zhat, Z)]))
+    fac = rule.factor(np.concatenate([dX, zspace.local(zhat[..., None, :], Z)], axis=-1))
     d = belief.dim
-    Cx, Cz = fac.C[:d], fac.C[d:]
+    Cx, Cz = fac.C[..., :d, :], fac.C[..., d:, :]
     nu = zspace.local(zhat, np.asarray(z, dtype=float))
-    Pxz = Cx @ Cz.T
+    Pxz = Cx @ swap(Cz)
     c0x = c0z = None
     if fac.c0 is not None:
-        c0x, c0z = fac.c0[:d], fac.c0[d:]
-        Pxz = Pxz + fac.sign * np.outer(c0x, c0z)
+        c0x, c0z = fac.c0[..., :d], fac.c0[..., d:]
+        Pxz = Pxz + fac.sign * outer(c0x, c0z)
     zfac = Factor(Cz, c0z, fac.sign)
     R = model.noise
     if form == "dense":
         Pzz = _covariance("dense", zfac, R)
         Szz = chol(Pzz)
         K = kalman_gain(Pxz, Szz)
-        P = belief.cov - K @ Pzz @ K.T
-        post = 0.5 * (P + P.T)
+        P = belief.cov - K @ Pzz @ swap(K)
+        post = 0.5 * (P + swap(P))
         w = solve_lower(Szz, nu)
     elif form == "sqrt":
         Szz = _covariance("sqrt", zfac, R)
-        if not np.all(np.diagonal(Szz) > 0.0):
+        if not np.all(np.diagonal(Szz, axis1=-2, axis2=-1) > 0.0):
             raise NotPositiveDefiniteError("innovation covariance is singular")
         K = kalman_gain(Pxz, Szz)
         post = factorise("sqrt", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
@@ -122,18 +127,18 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         U, s, _ = np.linalg.svd(Szz, full_matrices=False)
         if not np.all(s > 0.0):
             raise NotPositiveDefiniteError("innovation covariance is singular")
-        K = ((Pxz @ U) / s**2) @ U.T
+        K = ((Pxz @ U) / (s**2)[..., None, :]) @ swap(U)
         post = factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
-        w = (U.T @ nu) / s
-    mean = belief.space.retract(belief.mean, K @ nu)
-    return _belief(form, mean, post, belief.space), Innovation(nu, Szz, float(w @ w))
+        w = matvec(swap(U), nu) / s
+    mean = belief.space.retract(belief.mean, matvec(K, nu))
+    return _belief(form, mean, post, belief.space), Innovation(nu, Szz, nis_of(w))
 
 
 def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Array | None,
                       sign: float) -> Factor:
     if c0x is None:
         return Factor(Cx - K @ Cz)
-    return Factor(Cx - K @ Cz, c0x - K @ c0z, sign)
+    return Factor(Cx - K @ Cz, c0x - matvec(K, c0z), sign)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,10 @@ from .linalg import (
     block_diag2,
     chol,
     chol_update,
+    hstack,
+    outer,
     svd_factor,
+    swap,
     tria,
 )
 from .models import Belief, Noise, SqrtGaussian
@@ -46,7 +49,7 @@ def factor_of(belief: Belief, method: SqrtMethod = "cholesky") -> Array:
     lam, U = np.linalg.eigh(belief.cov)
     if not lam.min() > 0.0:
         return psd_factor(belief.cov)
-    return U * np.sqrt(lam)
+    return U * np.sqrt(lam)[..., None, :]
 
 
 def psd_factor(P: Array) -> Array:
@@ -54,12 +57,12 @@ def psd_factor(P: Array) -> Array:
     (eigenvalues down to :math:`-n\,\epsilon\,\lambda_{max}` count as zero); raises
     :class:`NotPositiveDefiniteError` for a covariance with a clearly negative or a
     non-finite eigenvalue."""
-    lam, U = np.linalg.eigh(0.5 * (P + P.T))
-    top = float(np.max(np.abs(lam), initial=0.0))
-    tol = P.shape[0] * np.finfo(float).eps * top
-    if not (np.isfinite(top) and lam.min(initial=0.0) >= -tol):
+    lam, U = np.linalg.eigh(0.5 * (P + swap(P)))
+    top = np.max(np.abs(lam), axis=-1, initial=0.0)
+    tol = P.shape[-1] * np.finfo(float).eps * top
+    if not (np.all(np.isfinite(top)) and np.all(lam.min(axis=-1, initial=0.0) >= -tol)):
         raise NotPositiveDefiniteError(f"covariance has eigenvalue {lam.min():.3e} < 0")
-    return U * np.sqrt(np.clip(lam, 0.0, None))
+    return U * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
 
 
 def prior_factor(P: Array) -> Array:
@@ -78,29 +81,29 @@ def draw(rule: PointRule, belief: Belief, noise: Noise | None = None,
 
     Returns
     -------
-    X : (m, nx) points on the belief's space.
-    W : (m, nw) noise points (``nw = 0`` without noise).
-    dX : (m, d) tangent deviations :math:`S\\xi_i` of the state part.
+    X : (..., m, nx) points on the belief's space (leading axes: a batch of beliefs).
+    W : (..., m, nw) noise points (``nw = 0`` without noise).
+    dX : (..., m, d) tangent deviations :math:`S\\xi_i` of the state part.
     wm : (m,) mean weights.
     """
     S = factor_of(belief, method)
     if noise is not None:
         S = block_diag2(S, noise.sqrt)
-    xi, wm = rule.points(S.shape[0])
-    delta = xi @ S.T
+    xi, wm = rule.points(S.shape[-1])
+    delta = xi @ swap(S)
     d = belief.dim
-    X = belief.space.retract(belief.mean, delta[:, :d])
-    return X, delta[:, d:], delta[:, :d], wm
+    X = belief.space.retract(belief.mean[..., None, :], delta[..., :d])
+    return X, delta[..., d:], delta[..., :d], wm
 
 
 def dense_cov(fac: Factor, noise_cov: Array | None) -> Array:
-    """``C Cᵀ + sign·c0 c0ᵀ (+ noise_cov)``, symmetrised."""
-    P = fac.C @ fac.C.T
+    """``C Cᵀ + sign·c0 c0ᵀ (+ noise_cov)``, symmetrised (batched over leading axes)."""
+    P = fac.C @ swap(fac.C)
     if noise_cov is not None:
         P = P + noise_cov
     if fac.c0 is not None:
-        P = P + fac.sign * np.outer(fac.c0, fac.c0)
-    return 0.5 * (P + P.T)
+        P = P + fac.sign * outer(fac.c0, fac.c0)
+    return 0.5 * (P + swap(P))
 
 
 def factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
@@ -111,9 +114,9 @@ def factorise(form: Form, fac: Factor, extra: Array | None) -> Array:
         if fac.c0 is not None:
             if fac.sign < 0:
                 raise ValueError("the SVD form needs non-negative weights")
-            blocks.append(fac.c0[:, None])
-        return svd_factor(np.hstack(blocks))
-    S = tria(np.hstack(blocks))
+            blocks.append(fac.c0[..., None])
+        return svd_factor(hstack(blocks))
+    S = tria(hstack(blocks))
     if fac.c0 is not None:
         S = chol_update(S, fac.c0, fac.sign)
     return S

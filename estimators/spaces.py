@@ -57,7 +57,8 @@ class Space(Protocol):
         ...
 
     def mean(self, points: Array, weights: Array) -> Array:
-        """Weighted mean of ``points`` ``(m, ambient_dim)`` with ``weights`` ``(m,)``.
+        """Weighted mean of ``points`` ``(..., m, ambient_dim)`` with ``weights`` ``(m,)``
+        (one mean per leading index: a batch of clouds).
 
         Weights sum to one but may be negative (unscented and central-difference rules).
         """
@@ -137,8 +138,8 @@ class Angle(_Flat):
         return wrap_angle(y - x)
 
     def mean(self, points: Array, weights: Array) -> Array:
-        ref = points[0]
-        return wrap_angle(ref + weights @ wrap_angle(points - ref))
+        ref = points[..., 0, :]
+        return wrap_angle(ref + weights @ wrap_angle(points - ref[..., None, :]))
 
 
 @dataclass(frozen=True)
@@ -209,5 +210,5 @@ class Wrapped(_Flat):
         return self._wrap(y - x)
 
     def mean(self, points: Array, weights: Array) -> Array:
-        ref = points[0]
-        return self._wrap(ref + weights @ self._wrap(points - ref))
+        ref = points[..., 0, :]
+        return self._wrap(ref + weights @ self._wrap(points - ref[..., None, :]))

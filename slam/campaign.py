@@ -101,14 +101,16 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
         proc.join(timeout=2.0)
 
 
-def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple]) -> Iterator:
-    """``pool.map(run_task, tasks)``, the workers forked with SIGINT/SIGTERM blocked (a
-    signal arriving meanwhile is delivered to this process afterwards)."""
+def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple],
+                  fn: Callable[[tuple], Any] | None = None) -> Iterator:
+    """``pool.map(fn, tasks)`` (default :func:`run_task`), the workers forked with
+    SIGINT/SIGTERM blocked (a signal arriving meanwhile is delivered to this process
+    afterwards)."""
     mask = hasattr(signal, "pthread_sigmask") and threading.current_thread() is \
         threading.main_thread()
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if mask else None
     try:
-        return pool.map(run_task, tasks)
+        return pool.map(fn or run_task, tasks)
     finally:
         if old is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
@@ -128,6 +130,28 @@ def run_task(args: tuple) -> RunOutcome:
     world = args[0]
     with threadpool_limits(1):
         return KINDS[world.kind].run_once(*args)
+
+
+def run_task_batch(args: tuple) -> list[RunOutcome]:
+    """The batched task: ``(world, runs, seed_seqs, filters, keep_first)`` -> the runs'
+    outcomes (:class:`~slam.kind.RunBatch`), one maths thread as :func:`run_task`."""
+    from threadpoolctl import threadpool_limits
+
+    world = args[0]
+    with threadpool_limits(1):
+        return KINDS[world.kind].run_batch(*args)
+
+
+EXECUTORS = ("batched", "per-run")
+"""How a campaign runs its runs: ``batched`` (chunks of runs through the filters at once,
+where the kind has the batched path) or ``per-run`` (one run per task, the reference)."""
+
+
+def batch_chunks(runs: int, workers: int, batch: int | None = None) -> list[range]:
+    """Consecutive chunks of the run indices: ``batch`` runs each, by default as many as
+    share the ``workers`` evenly (one chunk per worker, at most 64 runs)."""
+    size = batch or min(64, -(-runs // max(workers, 1)))
+    return [range(i, min(i + size, runs)) for i in range(0, runs, size)]
 
 
 def dask_mapper(address: str):
@@ -156,6 +180,15 @@ def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[
     return [(world, i, s, list(filters), i == 0) for i, s in enumerate(run_seeds(seed, runs))]
 
 
+def batch_tasks(world, filters: Sequence[str], runs: int, seed: int, workers: int,
+                batch: int | None = None) -> list[tuple]:
+    """The batched task arguments: chunks of runs (:func:`batch_chunks`) with their seeds
+    (the same seed per run as :func:`campaign_tasks`)."""
+    seeds = run_seeds(seed, runs)
+    return [(world, list(c), [seeds[i] for i in c], list(filters), True)
+            for c in batch_chunks(runs, workers, batch)]
+
+
 def _count(counter: Any) -> int:
     """The counter's value read without its lock: a worker killed while holding the lock
     (Ctrl-C stops the pool at once) must not block the reader."""
@@ -172,7 +205,8 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
                  seed: int | None = None, workers: int = 1,
                  mapper: Callable[[Callable, Iterable], Iterable] | None = None,
                  progress: Callable[[int], None] | None = None,
-                 epochs: Callable[[int], None] | None = None) -> CampaignResult:
+                 epochs: Callable[[int], None] | None = None, executor: str = "batched",
+                 batch: int | None = None) -> CampaignResult:
     """Run a Monte Carlo campaign on ``world``.
 
     Parameters
@@ -185,36 +219,47 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     epochs : called about twice a second from another thread with the number of filter
         epochs run so far (all filters, all runs; not with ``mapper``), so that progress
         moves within a run.
+    executor : ``"batched"`` (chunks of ``batch`` runs through the filters at once, where
+        the kind has a batched path; the default) or ``"per-run"`` (:data:`EXECUTORS`).
+        Both give the same summary to round-off (``tests/slam/test_batch_campaign.py``).
     """
     if world.kind not in KINDS:
         raise ValueError(f"no scenario kind {world.kind!r} is registered")
     filters = list(filters or world.filters.names)
     runs = int(runs or world.runs)
     seed = int(world.seed if seed is None else seed)
-    tasks = campaign_tasks(world, filters, runs, seed)
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose from {', '.join(EXECUTORS)}")
+    batched = executor == "batched" and KINDS[world.kind].run_batch is not None
+    if batched:
+        fn: Callable = run_task_batch
+        tasks = batch_tasks(world, filters, runs, seed, 1 if mapper else workers, batch)
+    else:
+        fn, tasks = run_task, campaign_tasks(world, filters, runs, seed)
     outcomes: list[RunOutcome] = []
     pool = None
     counter = multiprocessing.Value("q", 0) if epochs is not None and mapper is None else None
     if mapper is not None:
-        it = mapper(run_task, tasks)
+        it = mapper(fn, tasks)
     elif workers <= 1:
         pin_threads()
         if counter is not None:
             count_epochs(counter)
-        it = map(run_task, tasks)
+        it = map(fn, tasks)
     else:
         pool = ProcessPoolExecutor(max_workers=workers, initializer=init_worker,
                                    initargs=(os.getpid(), counter))
-        it = _pool_results(pool, tasks)
+        it = _pool_results(pool, tasks, fn)
     done = threading.Event()
     if counter is not None and epochs is not None:
         threading.Thread(target=_poll, args=(counter, epochs, done), daemon=True,
                          name="epoch-progress").start()
     try:
         for out in it:
-            outcomes.append(out)
+            got = out if isinstance(out, list) else [out]
+            outcomes.extend(got)
             if progress:
-                progress(1)
+                progress(len(got))
     except BaseException:  # an error, Ctrl-C: no waiting for the runs still going
         done.set()
         if pool is not None:

@@ -245,27 +245,33 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "blocks a step touches; ekf, srckf, srukf, srcdkf and their -inv / -linv). "
                    "Default: the world's "
                    "[filters] mode; local for --log.")
+@click.option("--executor", type=click.Choice(("batched", "per-run")), default="batched",
+              show_default=True,
+              help="batched: chunks of runs go through the filters at once (the runs as an "
+                   "array axis; kinds without it run per run); per-run: one run per task, the "
+                   "reference path. Both give the same numbers to round-off.")
 @click.option("--log", "log_file", metavar="FILE",
               help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "
                    "text format (ODOMETRY/LANDMARK lines, e.g. victoria_park.txt) instead of a "
                    "world; the filters are scored against the smoother.")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, log_file: str | None) -> None:
+            no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught)
+                 caught, executor)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
-         mode: str | None, log_file: str | None, caught: dict[str, int]) -> None:
+         mode: str | None, log_file: str | None, caught: dict[str, int],
+         executor: str = "batched") -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
@@ -288,7 +294,7 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         raise InputError(f"--workers = {workers}: must be in [1, 256]")
     campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
                 "seed": w.seed if seed is None else seed, "mode": world_mode,
-                "filters": names}
+                "filters": names, "executor": executor}
     if out is None:
         own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
                "filters": None if log_file is not None and filters else list(w.filters.names)}
@@ -437,6 +443,7 @@ def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
 
             result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
                                   seed=campaign["seed"], workers=workers, mapper=mapper,
+                                  executor=campaign.get("executor", "batched"),
                                   progress=bar.update, epochs=None if bar.disable else epochs)
     finally:
         if client is not None:

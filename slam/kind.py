@@ -33,6 +33,16 @@ class RunOnce(Protocol):
                  filters: Sequence[str], keep_tracks: bool = False) -> RunOutcome: ...
 
 
+class RunBatch(Protocol):
+    """Simulate (or read) runs ``runs`` from their own seeds and score every estimator on
+    each, the filters over all the runs at once where they can (the runs as an array
+    axis); each outcome equals :class:`RunOnce`'s for that run."""
+
+    def __call__(self, world: Any, runs: Sequence[int],
+                 seed_seqs: Sequence[np.random.SeedSequence], filters: Sequence[str],
+                 keep_first: bool = False) -> list[RunOutcome]: ...
+
+
 class Summarize(Protocol):
     """The ``summary.json`` dict of a campaign from its runs' outcomes."""
 
@@ -88,6 +98,8 @@ class Kind:
         a world of this kind (``slam run --log FILE``); ``None`` otherwise.
     filters : every filter name a world of this kind can run (``--filters``, the world
         file's list); the standard Kalman-type filters unless the kind says more.
+    run_batch : the batched path (:class:`RunBatch`), or ``None`` when the kind only has
+        the per-run one; the campaign uses it unless asked for the per-run path.
     """
 
     name: str
@@ -99,6 +111,7 @@ class Kind:
     mode_filters: dict[str, tuple[str, ...]] | None = None
     open_log: Callable[[Path, Sequence[str] | None, str | None], Any] | Deferred | None = None
     filters: tuple[str, ...] = FILTER_NAMES
+    run_batch: RunBatch | Deferred | None = None
 
     def load(self) -> None:
         """Import every :class:`Deferred` part now (the command line does it with Ctrl-C

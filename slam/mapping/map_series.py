@@ -101,6 +101,68 @@ class MapRecorder:
         return MapSeries(n, scored, sq, nees, count, trace, self.layout.landmark_dim)
 
 
+class BatchMapRecorder:
+    """:class:`MapRecorder` for a batch of runs with one layout (the same slots and ids):
+    one summary per member per epoch, computed for every member at once."""
+
+    def __init__(self, layout: BlockLayout, n_runs: int, n_epochs: int,
+                 true_landmarks: Array | None):
+        self.layout, self.truth = layout, true_landmarks
+        self.values = np.full((n_runs, 6, n_epochs), np.nan)
+        self.seconds = 0.0
+
+    def record(self, e: int, b: Belief, live: Array, slot_ids: list[int]) -> None:
+        """Summarise the maps of the batch ``b`` (members ``live``) at epoch ``e``."""
+        t0 = time.perf_counter()
+        try:
+            with np.errstate(all="ignore"):
+                self.values[live, :, e] = self._summary(b, np.asarray(slot_ids, dtype=int))
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            self.values[live, :, e] = np.nan
+        self.seconds += time.perf_counter() - t0
+
+    def _summary(self, b: Belief, ids: Array) -> Array:
+        lay = self.layout
+        B = b.mean.shape[0]
+        n_lm, na, nd = len(ids), lay.landmark_ambient, lay.landmark_dim
+        out = np.zeros((B, 6))
+        if n_lm == 0:
+            return out
+        start, stop = lay.vehicle_dim, lay.vehicle_dim + n_lm * nd
+        if isinstance(b, SqrtGaussian):
+            S = b.sqrt[:, start:stop].reshape(B, n_lm, nd, -1)
+            blocks = np.einsum("blik,bljk->blij", S, S)
+        else:
+            C = b.cov[:, start:stop, start:stop].reshape(B, n_lm, nd, n_lm, nd)
+            idx = np.arange(n_lm)
+            blocks = C[:, idx, :, idx, :].transpose(1, 0, 2, 3)
+        out[:, 0] = n_lm
+        out[:, 5] = np.trace(blocks, axis1=2, axis2=3).sum(axis=1)
+        known = ids >= 0
+        if self.truth is not None:
+            known &= ids < len(self.truth)
+        if self.truth is None or not known.any() or na != nd:
+            out[:, 2:4] = np.nan
+            return out
+        means = b.mean[:, lay.vehicle_ambient:lay.vehicle_ambient + n_lm * na
+                       ].reshape(B, n_lm, na)
+        err = means[:, known] - self.truth[ids[known]]
+        k = int(known.sum())
+        nees = nees_series(err.reshape(B * k, nd), blocks[:, known].reshape(B * k, nd, nd)
+                           ).reshape(B, k)
+        finite = np.isfinite(nees)
+        out[:, 1] = k
+        out[:, 2] = np.sum(err**2, axis=(1, 2))
+        out[:, 3] = np.where(finite, nees, 0.0).sum(axis=1)
+        out[:, 4] = finite.sum(axis=1)
+        return out
+
+    def series(self, run: int) -> MapSeries:
+        """Member ``run``'s recorded series (single precision)."""
+        n, scored, sq, nees, count, trace = self.values[run].astype(np.float32)
+        return MapSeries(n, scored, sq, nees, count, trace, self.layout.landmark_dim)
+
+
 def vehicle_variances(b: Belief, dim: int) -> Array:
     """Variances of the first ``dim`` tangent coordinates (the vehicle's)."""
     if isinstance(b, SqrtGaussian):

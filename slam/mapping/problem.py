@@ -118,6 +118,9 @@ class SlamProblem:
         filter keeps (a space with ``retract_world`` and ``transport``); the belief stays in the
         world chart of ``layout`` and every correction is moved on the group with its
         covariance transported (:mod:`estimators.group_transport`).  ``None``: no transport.
+    batchable : the models broadcast over a leading batch axis (points (B, m, n), inputs
+        (B, ...)) and ``motion``'s model does not depend on the belief, so runs of the same
+        layout may share a batch (:mod:`slam.mapping.batch`).
     """
 
     x0: Array
@@ -136,6 +139,7 @@ class SlamProblem:
     record_rows: Array | None = None
     true_landmarks: Array | None = None
     group: Callable[[int], Any] | None = None
+    batchable: bool = False
 
     def landmark_rows(self, slot: int) -> Array:
         """Tangent rows of landmark ``slot``."""

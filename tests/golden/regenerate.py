@@ -169,7 +169,8 @@ def run(campaign: Campaign) -> dict[str, Any]:
 
     with _scratch_cwd():
         world = campaign.world()
-        result = run_campaign(world, runs=campaign.runs, seed=campaign.seed, workers=1)
+        result = run_campaign(world, runs=campaign.runs, seed=campaign.seed, workers=1,
+                              executor="per-run")
     return json.loads(summary_json(strip_timings(result.summary)))
 
 

@@ -8,4 +8,5 @@ from slam.kinds.planar.world import LOCAL_FILTERS, MODES, parse
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize_planar"), Deferred(f"{__name__}.report:REPORT"),
-            MODES, {"local": LOCAL_FILTERS}, filters=PLANAR_FILTERS)
+            MODES, {"local": LOCAL_FILTERS}, filters=PLANAR_FILTERS,
+            run_batch=Deferred(f"{__name__}.run:run_batch"))

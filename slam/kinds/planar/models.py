@@ -52,22 +52,25 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
     """
 
     def f(X: Array, u: Array, W: Array) -> Array:
-        # Per-step controls as (n_steps, m) rows, then the motion equations above step by step.
-        V = u[:, :1] + W[:, 0::2].T
-        G = u[:, 1:] + W[:, 1::2].T
+        # Per-step controls as (n_steps, m) rows, then the motion equations above step by step
+        # (leading axes: a batch of runs, each with its own controls u (..., n_steps, 2)).
+        V = u[..., :, :1] + np.swapaxes(W[..., 0::2], -1, -2)
+        G = u[..., :, 1:] + np.swapaxes(W[..., 1::2], -1, -2)
         vdt = V * dt
         turn = vdt * np.sin(G) / wheelbase
         Y = X.copy()
-        x, y, heading = Y[:, 0], Y[:, 1], X[:, 2]
-        for i in range(n_steps):
-            a = G[i] + heading
-            x += vdt[i] * np.cos(a)
-            y += vdt[i] * np.sin(a)
-            heading = wrap_angle(heading + turn[i])
-        Y[:, 2] = heading
+        x, y, heading = Y[..., 0], Y[..., 1], X[..., 2]
+        for i in range(n_steps):  # the heading wrapped once at the end: cos/sin need not
+            a = G[..., i, :] + heading
+            x += vdt[..., i, :] * np.cos(a)
+            y += vdt[..., i, :] * np.sin(a)
+            heading = heading + turn[..., i, :]
+        Y[..., 2] = wrap_angle(heading)
         return Y
 
     def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
+        if x.ndim > 1:
+            return _motion_jacobian_batch(x, u, dt, wheelbase)
         n = x.shape[0]
         V, Gs = u[:, 0], u[:, 1]
         vdt = V * dt
@@ -103,19 +106,61 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
     return Transition(f, Noise.from_cov(cov), additive=False, jacobian=jacobian)
 
 
+def _motion_jacobian_batch(x: Array, u: Array, dt: float, wheelbase: float
+                           ) -> tuple[Array, Array]:
+    """The motion Jacobians ``(F, G)`` (..., n, n), (..., n, 2 n_steps) of a batch of states
+    ``x`` (..., n) with controls ``u`` (..., n_steps, 2): the per-step chain of
+    :func:`motion_model`'s Jacobian, run for every member at once."""
+    lead, n = x.shape[:-1], x.shape[-1]
+    s = u.shape[-2]
+    V, Gs = u[..., 0], u[..., 1]
+    vdt = V * dt
+    turn = vdt * np.sin(Gs) / wheelbase
+    heading = np.empty(lead + (s,))
+    h = x[..., 2]
+    for i in range(s):
+        heading[..., i] = h
+        h = wrap_angle(h + turn[..., i])
+    a = Gs + heading
+    sa, ca = np.sin(a), np.cos(a)
+    F = np.zeros(lead + (s, 3, 3))
+    F[..., [0, 1, 2], [0, 1, 2]] = 1.0
+    F[..., 0, 2] = -V * dt * sa
+    F[..., 1, 2] = V * dt * ca
+    Gi = np.empty(lead + (s, 3, 2))
+    Gi[..., 0, 0], Gi[..., 0, 1] = dt * ca, -V * dt * sa
+    Gi[..., 1, 0], Gi[..., 1, 1] = dt * sa, V * dt * ca
+    Gi[..., 2, 0], Gi[..., 2, 1] = dt * np.sin(Gs) / wheelbase, V * dt * np.cos(Gs) / wheelbase
+    Fv = np.broadcast_to(np.eye(3), lead + (3, 3))
+    Gv = np.zeros(lead + (3, 2 * s))
+    for i in range(s):
+        Fv = F[..., i, :, :] @ Fv
+        Gv = F[..., i, :, :] @ Gv
+        Gv[..., 2 * i:2 * i + 2] = Gi[..., i, :, :]
+    Fm = np.broadcast_to(np.eye(n), lead + (n, n)).copy()
+    Fm[..., :3, :3] = Fv
+    Gm = np.zeros(lead + (n, 2 * s))
+    Gm[..., :3, :] = Gv
+    return Fm, Gm
+
+
 def range_bearing(X: Array, slots: Array) -> Array:
-    """Stacked ``[r, b]`` of the landmarks at state slots ``slots`` (k,) from poses X."""
+    """Stacked ``[r, b]`` of the landmarks at state slots ``slots`` (k,) from poses X
+    (..., m, n) (leading axes: a batch)."""
     cols = 3 + 2 * np.asarray(slots)
-    dx = X[:, cols] - X[:, :1]
-    dy = X[:, cols + 1] - X[:, 1:2]
-    Z = np.empty((X.shape[0], 2 * len(cols)))
-    Z[:, 0::2] = np.hypot(dx, dy)
-    Z[:, 1::2] = wrap_angle(np.arctan2(dy, dx) - X[:, 2:3])
+    dx = X[..., cols] - X[..., :1]
+    dy = X[..., cols + 1] - X[..., 1:2]
+    Z = np.empty(X.shape[:-1] + (2 * len(cols),))
+    Z[..., 0::2] = np.hypot(dx, dy)
+    Z[..., 1::2] = wrap_angle(np.arctan2(dy, dx) - X[..., 2:3])
     return Z
 
 
 def range_bearing_jacobian(x: Array, slots: Array) -> Array:
-    """Analytic Jacobian (2k, n) of :func:`range_bearing` at one state ``x``."""
+    """Analytic Jacobian (2k, n) of :func:`range_bearing` at one state ``x`` (a batch
+    (..., n) gives (..., 2k, n))."""
+    if x.ndim > 1:
+        return _range_bearing_jacobian_batch(x, np.asarray(slots, dtype=int))
     n = x.shape[0]
     H = np.zeros((2 * len(slots), n))
     for i, s in enumerate(slots):
@@ -126,6 +171,21 @@ def range_bearing_jacobian(x: Array, slots: Array) -> Array:
         H[2 * i, [0, 1, c, c + 1]] = [-dx / r, -dy / r, dx / r, dy / r]
         H[2 * i + 1, [0, 1, 2, c, c + 1]] = [dy / q, -dx / q, -1.0, -dy / q, dx / q]
     return H
+
+
+def _range_bearing_jacobian_batch(x: Array, slots: Array) -> Array:
+    lead, n, k = x.shape[:-1], x.shape[-1], len(slots)
+    c = 3 + 2 * slots
+    dx, dy = x[..., c] - x[..., :1], x[..., c + 1] - x[..., 1:2]
+    q = dx * dx + dy * dy
+    r = np.sqrt(q)
+    H = np.zeros(lead + (k, 2, n))
+    i = np.arange(k)
+    H[..., i, 0, 0], H[..., i, 0, 1] = -dx / r, -dy / r
+    H[..., i, 0, c], H[..., i, 0, c + 1] = dx / r, dy / r
+    H[..., i, 1, 0], H[..., i, 1, 1], H[..., i, 1, 2] = dy / q, -dx / q, -1.0
+    H[..., i, 1, c], H[..., i, 1, c + 1] = -dy / q, dx / q
+    return H.reshape(lead + (2 * k, n))
 
 
 def observation_model(slots: Array, obs_cov: Array) -> Measurement:
@@ -139,12 +199,13 @@ def observation_model(slots: Array, obs_cov: Array) -> Measurement:
 
 
 def landmark_from_observation(P: Array, Z: Array) -> Array:
-    """Inverse observation: landmark positions (m, 2k) from poses (m, 3) and ``Z`` (m, 2k)."""
-    r, b = Z[:, 0::2], Z[:, 1::2]
-    a = P[:, 2:3] + b
-    out = np.empty_like(Z)
-    out[:, 0::2] = P[:, :1] + r * np.cos(a)
-    out[:, 1::2] = P[:, 1:2] + r * np.sin(a)
+    """Inverse observation: landmark positions (..., m, 2k) from poses (..., m, 3) and ``Z``
+    (..., m, 2k)."""
+    r, b = Z[..., 0::2], Z[..., 1::2]
+    a = P[..., 2:3] + b
+    out = np.empty(np.broadcast_shapes(P.shape[:-1], Z.shape[:-1]) + Z.shape[-1:])
+    out[..., 0::2] = P[..., :1] + r * np.cos(a)
+    out[..., 1::2] = P[..., 1:2] + r * np.sin(a)
     return out
 
 
@@ -160,9 +221,12 @@ def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transi
     n = 3 + 2 * n_landmarks
 
     def f(X: Array, u: Array, W: Array) -> Array:
-        return np.hstack([X, landmark_from_observation(X[:, :3], u + W)])
+        return np.concatenate([X, landmark_from_observation(X[..., :3], u[..., None, :] + W)],
+                              axis=-1)
 
     def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
+        if x.ndim > 1:
+            return _augmentation_jacobian_batch(x, u, n, k)
         F = np.zeros((n + 2 * k, n))
         F[:n] = np.eye(n)
         Gm = np.zeros((n + 2 * k, 2 * k))
@@ -178,3 +242,22 @@ def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transi
 
     return Transition(f, Noise.from_cov(np.kron(np.eye(k), obs_cov)), additive=False,
                       space=state_space(n_landmarks + k), jacobian=jacobian)
+
+
+def _augmentation_jacobian_batch(x: Array, u: Array, n: int, k: int) -> tuple[Array, Array]:
+    """:func:`augmentation_model`'s Jacobians for a batch of states (..., n) and
+    observations (..., 2k)."""
+    lead = x.shape[:-1]
+    F = np.zeros(lead + (n + 2 * k, n))
+    F[..., :n, :n] = np.eye(n)
+    Gm = np.zeros(lead + (n + 2 * k, 2 * k))
+    r, b = u[..., 0::2], u[..., 1::2]
+    a = x[..., 2:3] + b
+    c, s = np.cos(a), np.sin(a)
+    rows = n + 2 * np.arange(k)
+    F[..., rows, 0], F[..., rows, 2] = 1.0, -r * s
+    F[..., rows + 1, 1], F[..., rows + 1, 2] = 1.0, r * c
+    cols = 2 * np.arange(k)
+    Gm[..., rows, cols], Gm[..., rows, cols + 1] = c, -r * s
+    Gm[..., rows + 1, cols], Gm[..., rows + 1, cols + 1] = s, r * c
+    return F, Gm

@@ -7,7 +7,6 @@ odometry-only baseline and the GTSAM smoother on the same log, and reduces each 
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -18,7 +17,7 @@ from slam.failures import run_reference
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.simulate import simulate_planar
-from slam.kinds.planar.slam import dead_reckoning, epochs_of, run_slam
+from slam.kinds.planar.slam import dead_reckoning_batch, epochs_of, run_slam_batch
 from slam.kinds.planar.variants import INVARIANT_BASES
 from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
@@ -26,39 +25,58 @@ from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
 
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],
              keep_tracks: bool = False, reference: bool = True) -> RunOutcome:
-    """Simulate one run and score every estimator on it."""
-    rng = np.random.default_rng(seed_seq)
-    log = simulate_planar(world, rng)
-    lms = log.landmarks
+    """Simulate one run and score every estimator on it (the per-run path)."""
+    return run_batch(world, [run], [seed_seq], filters, keep_tracks, reference,
+                     batched=False)[0]
+
+
+def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequence],
+              filters: Sequence[str], keep_first: bool = False, reference: bool = True,
+              batched: bool = True) -> list[RunOutcome]:
+    """Simulate runs ``runs`` (each from its own seed) and score every estimator on each:
+    the filters and the odometry run over all of them at once where their layouts agree
+    (:func:`~slam.kinds.planar.slam.run_slam_batch`; ``batched=False`` runs them one by
+    one), the smoother per run.  ``keep_first`` keeps full tracks of run 0 (if present).
+    Every outcome is the one :func:`run_once` gives for that run."""
+    logs = [simulate_planar(world, np.random.default_rng(s)) for s in seed_seqs]
     fs = world.filters
     period = world.sensor.period_steps
-    steps = epochs_of(log, period)
-    truth = log.truth[steps]
-    scores, tracks = {}, {}
+    steps = [epochs_of(log, period) for log in logs]
+    truths = [log.truth[st] for log, st in zip(logs, steps)]
+    scores: list[dict] = [{} for _ in logs]
+    tracks: list[dict] = [{} for _ in logs]
+    keep = [keep_first and r == 0 for r in runs]
     for name in filters:
-        r = run_slam(log, name, association=fs.association,
-                     gates=(fs.gate_accept, fs.gate_new), epoch_steps=period, mode=fs.mode,
-                     filter_params=fs.settings_of(name))
-        scores[name] = reduce_run(name, r.poses, r.pose_cov, truth, r.landmark_ids,
-                                  r.landmarks, lms, r.nis, r.nis_dof, r.time_s, r.diverged,
-                                  r.failure, nis_epoch=r.nis_epoch, map_series=r.map_series)
-        if keep_tracks:
-            tracks[name] = Track(name, r.poses, r.pose_cov, r.landmark_ids, r.landmarks,
-                                 r.landmark_cov)
-    t0 = time.perf_counter()
-    odo, odo_cov, odo_failure = dead_reckoning(log, steps)
-    scores[ODOMETRY] = reduce_run(ODOMETRY, odo, odo_cov, truth, np.zeros(0, int),
-                                  np.zeros((0, 2)), lms, np.zeros(0), np.zeros(0, int),
-                                  time.perf_counter() - t0, odo_failure is not None,
-                                  odo_failure)
-    if keep_tracks:
-        tracks[ODOMETRY] = Track(ODOMETRY, odo, odo_cov, np.zeros(0, int), np.zeros((0, 2)),
-                                 np.zeros((0, 2, 2)))
-    if reference:
-        _reference(log, steps, truth, scores, tracks if keep_tracks else None)
-    times = steps * log.dt
-    return RunOutcome(run, scores, tracks, truth if keep_tracks else None,
-                      lms if keep_tracks else None, times if keep_tracks else None)
+        results = run_slam_batch(logs, name, association=fs.association,
+                                 gates=(fs.gate_accept, fs.gate_new), epoch_steps=period,
+                                 mode=fs.mode, filter_params=fs.settings_of(name),
+                                 batched=batched)
+        for i, (log, r) in enumerate(zip(logs, results)):
+            scores[i][name] = reduce_run(name, r.poses, r.pose_cov, truths[i], r.landmark_ids,
+                                         r.landmarks, log.landmarks, r.nis, r.nis_dof,
+                                         r.time_s, r.diverged, r.failure,
+                                         nis_epoch=r.nis_epoch, map_series=r.map_series)
+            if keep[i]:
+                tracks[i][name] = Track(name, r.poses, r.pose_cov, r.landmark_ids,
+                                        r.landmarks, r.landmark_cov)
+    for i, (odo, odo_cov, odo_failure, seconds) in enumerate(
+            dead_reckoning_batch(logs, steps, batched=batched)):
+        lms = logs[i].landmarks
+        scores[i][ODOMETRY] = reduce_run(ODOMETRY, odo, odo_cov, truths[i], np.zeros(0, int),
+                                         np.zeros((0, 2)), lms, np.zeros(0),
+                                         np.zeros(0, int), seconds, odo_failure is not None,
+                                         odo_failure)
+        if keep[i]:
+            tracks[i][ODOMETRY] = Track(ODOMETRY, odo, odo_cov, np.zeros(0, int),
+                                        np.zeros((0, 2)), np.zeros((0, 2, 2)))
+    out = []
+    for i, (run, log) in enumerate(zip(runs, logs)):
+        if reference:
+            _reference(log, steps[i], truths[i], scores[i], tracks[i] if keep[i] else None)
+        k = keep[i]
+        out.append(RunOutcome(run, scores[i], tracks[i], truths[i] if k else None,
+                              log.landmarks if k else None, steps[i] * log.dt if k else None))
+    return out
 
 
 def _reference(log, steps, truth, scores: dict, tracks: dict | None) -> None:

@@ -4,12 +4,14 @@ filter run, and the odometry-only baseline."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from functools import cache, partial
 
 import numpy as np
 
 from estimators import BlockLayout, Gaussian, make_filter, wrap_angle
+from estimators.batch import run_batch
 from estimators.linalg import Array
 from estimators.loop import run_epochs
 from estimators.models import Belief, Measurement, Transition
@@ -32,6 +34,7 @@ from slam.kinds.planar.variants import (
     problem_for,
 )
 from slam.mapping.association import gated_choice
+from slam.mapping.batch import run_problems
 from slam.mapping.problem import SlamProblem, SlamResult, run_problem, world_belief
 
 #: Layout of the planar state: the pose ``[x, y, φ]``, then 2-D landmarks.
@@ -142,7 +145,8 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
         steps=epochs_of(log, epoch_steps), motion=motion,
         observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
         observe=observe, augment=augment, layout=v.layout,
-        truth=log.truth, nearest=nearest, true_landmarks=log.landmarks)
+        truth=log.truth, nearest=nearest, true_landmarks=log.landmarks,
+        batchable=variant is None)
 
 
 def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
@@ -171,6 +175,18 @@ def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",
                        diverge_m=diverge_m, filter_params=filter_params)
 
 
+def run_slam_batch(logs: list[PlanarLog], filter_name: str, *, association: str = "known",
+                   gates: tuple[float, float] = (4.0, 25.0), epoch_steps: int = 8,
+                   diverge_m: float = 50.0, filter_params: dict | None = None,
+                   mode: str = "joint", batched: bool = True) -> list[SlamResult]:
+    """:func:`run_slam` of every log, the runs that share a layout as one batch
+    (:func:`slam.mapping.batch.run_problems`; each result is the per-run one)."""
+    problems = [problem_for(lambda variant, log=log: planar_problem(
+        log, epoch_steps=epoch_steps, variant=variant), filter_name, mode) for log in logs]
+    return run_problems(problems, filter_name, mode=mode, association=association, gates=gates,
+                        diverge_m=diverge_m, filter_params=filter_params, batched=batched)
+
+
 def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array, str | None]:
     """Odometry only: the EKF prediction of the vehicle from the noisy controls, through the
     one filter loop with no measurements.
@@ -196,3 +212,51 @@ def dead_reckoning(log: PlanarLog, steps: Array) -> tuple[Array, Array, str | No
     out = run_epochs(make_filter("ekf"), b0, E, transition=transition, record=record,
                      correct=lambda e, b: (b, []))
     return poses, covs, out.failure
+
+
+def dead_reckoning_batch(logs: list[PlanarLog], steps: list[Array], batched: bool = True
+                         ) -> list[tuple[Array, Array, str | None, float]]:
+    """:func:`dead_reckoning` of every log (with its wall time), the logs with the same
+    epochs as one batch (the car model broadcasts over runs); each result is the per-run
+    one."""
+    if not batched or len(logs) == 1:
+        out = []
+        for log, st in zip(logs, steps):
+            t0 = time.perf_counter()
+            poses, covs, failure = dead_reckoning(log, st)
+            out.append((poses, covs, failure, time.perf_counter() - t0))
+        return out
+    groups: dict[bytes, list[int]] = {}
+    for i, st in enumerate(steps):
+        groups.setdefault(np.asarray(st, dtype=np.int64).tobytes(), []).append(i)
+    results: list = [None] * len(logs)
+    for idx in groups.values():
+        if len(idx) == 1:
+            results[idx[0]] = dead_reckoning_batch([logs[idx[0]]], [steps[idx[0]]], False)[0]
+            continue
+        group = [logs[i] for i in idx]
+        for i, r in zip(idx, _dead_reckoning_group(group, steps[idx[0]])):
+            results[i] = r
+    return results
+
+
+def _dead_reckoning_group(logs: list[PlanarLog], steps: Array
+                          ) -> list[tuple[Array, Array, str | None, float]]:
+    B, E = len(logs), len(steps)
+    poses, covs = np.full((B, E, 3), np.nan), np.full((B, E, 3, 3), np.nan)
+    log0 = logs[0]
+    steps_model = cache(partial(motion_model, log0.dt, log0.wheelbase, log0.control_cov))
+    controls = np.stack([log.controls for log in logs])
+
+    def record(e: int, b: Belief, live: Array) -> None:
+        poses[live, e], covs[live, e] = b.mean, b.cov
+
+    def transition(e: int, b: Belief, live: Array) -> tuple[Transition, Array]:
+        k0, k1 = int(steps[e - 1]), int(steps[e])
+        return steps_model(k1 - k0), controls[live, k0:k1]
+
+    b0 = Gaussian(np.stack([np.asarray(log.x0, dtype=float) for log in logs]),
+                  np.stack([np.asarray(log.P0, dtype=float) for log in logs]), state_space(0))
+    outs = run_batch(make_filter("ekf"), b0, E, transition=transition, record=record,
+                     correct=lambda e, b, live: (b, []))
+    return [(poses[r], covs[r], o.failure, o.time_s) for r, o in enumerate(outs)]
