@@ -280,6 +280,11 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         w, kind, own_mode = _open_world(world or "bailey", mode)
     _load_kind(kind, caught, plots=not no_plots)
     names = _parse_filters(filters, w.filters.names, kind.filters)
+    gap = w.filters.missing(names) if hasattr(w.filters, "missing") else None
+    if gap is not None:  # a filter's tuning constants are never a hidden default
+        table, need = gap
+        raise InputError(f"{'--filters' if filters else w.source}: {', '.join(need)} need(s) "
+                         f"[filters.{table}] settings, which {w.source} does not state")
     world_mode = getattr(w.filters, "mode", None) if kind.modes else None
     if world_mode is not None:
         _check_mode(kind, names, world_mode,

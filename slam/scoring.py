@@ -33,6 +33,19 @@ class Ended(Protocol):
 S = TypeVar("S", bound=Ended)
 
 
+def pad_stack(arrays: Sequence[Array], length: int | None = None) -> Array:
+    """Per-run series of possibly different lengths (their first axis: the epochs) as one
+    (R, E, ...) array, NaN after a run's last epoch; ``E`` is ``length`` (longer runs cut)
+    or the longest run's.  Runs differ in length when their truths do (a vehicle with an
+    uncertain start reaches the waypoints at other times)."""
+    arrays = [np.asarray(a, dtype=float) for a in arrays]
+    E = max(len(a) for a in arrays) if length is None else length
+    out = np.full((len(arrays), E) + arrays[0].shape[1:], np.nan)
+    for i, a in enumerate(arrays):
+        out[i, :min(len(a), E)] = a[:E]
+    return out
+
+
 def nees_series(err: Array, cov: Array) -> Array:
     """NEES per step; NaN where ``cov`` is absent, non-finite or near-singular."""
     out = np.full(err.shape[0], np.nan)

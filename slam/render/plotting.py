@@ -35,8 +35,9 @@ from slam.render.palette import (  # noqa: E402, F401  (re-exported)
     run0,
     titled,
 )
-from slam.render.series import good_scores  # noqa: E402, F401  (re-exported)
+from slam.render.series import good_scores, n_epochs  # noqa: E402, F401  (re-exported)
 from slam.results import Array, CampaignResult  # noqa: E402
+from slam.scoring import pad_stack  # noqa: E402
 
 DPI = 110
 def save(fig: plt.Figure, path) -> None:
@@ -59,11 +60,14 @@ def covariance_ellipse(mean: Array, cov: Array, n_sigma: float = 2.0, **kw) -> E
                    angle=angle, **kw)
 
 
-def envelope(scores: list, values: Callable) -> tuple[Array, Array] | None:
-    """Monte Carlo envelope (per-epoch min and max over runs) of ``values(score)``."""
+def envelope(scores: list, values: Callable, length: int | None = None
+             ) -> tuple[Array, Array] | None:
+    """Monte Carlo envelope (per-epoch min and max over runs) of ``values(score)`` over
+    ``length`` epochs (runs of other lengths padded with NaN or cut; default: the
+    longest)."""
     if not scores:
         return None
-    a = np.stack([values(s) for s in scores])
+    a = pad_stack([values(s) for s in scores], length)
     if not np.isfinite(a).any():
         return None
     with warnings.catch_warnings():
@@ -81,7 +85,7 @@ def envelope_and_run0(result: CampaignResult, name: str, err: Callable,
     shown = None
     if s0 is not None and not s0.diverged and sigma is not None:
         shown = (err(s0), sigma(s0))
-    return envelope(good_scores(result, name), err), shown
+    return envelope(good_scores(result, name), err, n_epochs(result)), shown
 
 
 def estimator_lines(axes: Sequence[plt.Axes], t: Array, names: Sequence[str],

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from slam.results import Array, CampaignResult
-from slam.scoring import chi2_ppf
+from slam.scoring import chi2_ppf, pad_stack
 
 Scores = Any
 """One estimator's per-run score object (RunScores, DroneScores, AttitudeScores, ...)."""
@@ -69,7 +69,7 @@ def run_statistic(result: CampaignResult, name: str,
         return None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # epochs with no value in any run
-        return statistic(np.stack([s.err for s in scores]))
+        return statistic(pad_stack([s.err for s in scores], n_epochs(result)))
 
 
 def n_epochs(result: CampaignResult) -> int:

@@ -41,3 +41,22 @@ def test_a_usage_error_is_one_line_with_exit_2(argv, tmp_path, monkeypatch):
 def test_bare_slam_shows_the_help():
     res = CliRunner().invoke(cli.main, [], prog_name="slam")
     assert res.exit_code == 0 and res.output.startswith("Usage: slam [OPTIONS] COMMAND")
+
+
+def test_a_filter_whose_settings_the_world_does_not_state_is_refused(tmp_path, monkeypatch):
+    """``--filters srukf`` on a world without ``[filters.unscented]`` would run the SRUKF at
+    a hidden default: refused in one line (exit 2), nothing written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "w.toml").write_text(
+        'kind = "planar-slam"\ndescription = "no unscented settings"\nruns = 1\n'
+        '[map]\nbounds_m = [-20.0, 50.0, -20.0, 50.0]\n'
+        'landmarks = [[15.0, -6.0], [36.0, 15.0]]\nwaypoints = [[30.0, 0.0], [0.0, 0.0]]\n'
+        '[vehicle]\nstart_xy_m = [0.0, 0.0]\nstart_heading_deg = 0.0\n'
+        '[filters]\nnames = ["ekf"]\n', encoding="utf-8")
+    res = CliRunner().invoke(cli.main, ["run", "w.toml", "--filters", "ekf,srukf",
+                                        "--out", "out", "--no-plots"])
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert lines == ["error: --filters: srukf need(s) [filters.unscented] settings, which "
+                     "w.toml does not state"], res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.toml"]

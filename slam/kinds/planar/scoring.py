@@ -9,7 +9,14 @@ import numpy as np
 
 from estimators import wrap_angle
 from slam.results import Array, RunScores
-from slam.scoring import anees_entries, nees_series, nis_and_timing, scored_runs, track_frame
+from slam.scoring import (
+    anees_entries,
+    nees_series,
+    nis_and_timing,
+    pad_stack,
+    scored_runs,
+    track_frame,
+)
 
 
 def pose_errors(poses: Array, truth: Array) -> Array:
@@ -51,7 +58,7 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
     good, out = scored_runs(scores)
     if not good:
         return out
-    err = np.stack([s.err for s in good])  # (R, K + 1, 3)
+    err = pad_stack([s.err for s in good])  # (R, E, 3), NaN after a shorter run's end
     pos2 = err[..., 0] ** 2 + err[..., 1] ** 2
     out["pos_rmse_m"] = float(np.sqrt(np.nanmean(pos2)))
     out["pos_err_range_m"] = {
@@ -63,7 +70,7 @@ def summarize(scores: list[RunScores], *, with_heading: bool = True) -> dict:
     lm = np.concatenate([s.lm_err for s in good])
     if lm.size:
         out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))
-    out.update(anees_entries(np.stack([s.nees for s in good]), 3))  # (R, E)
+    out.update(anees_entries(pad_stack([s.nees for s in good]), 3))  # (R, E)
     out.update(nis_and_timing(good))
     return out
 
