@@ -1,20 +1,23 @@
-"""Vehicle-map SLAM for a batch of runs at once: :func:`run_problems` is
+"""Vehicle-map SLAM for many runs at once: :func:`run_problems` is
 :func:`~slam.mapping.problem.run_problem` for many logs of the same world, with the runs as
 an array axis through the filter (:mod:`estimators.batch`).
 
-Which runs share a batch
-    Runs are stacked only where their filters see the same *layout* at every epoch: the
-    same epochs, the same observed landmark ids in the same order at each of them (so the
-    same state slots, updates and augmentations), in joint mode, with known association,
-    for a filter whose models broadcast over a batch (:attr:`SlamProblem.batchable`, the
-    standard-error problems).  The runs are grouped by that layout before anything runs;
-    a group of one, nearest-neighbour association (whose slots depend on each run's own
-    estimates), local mode and the variants run per run, through ``run_problem``.  So the
-    regrouping can never give a wrong answer: a run is batched only with runs whose every
-    step is the same computation on other numbers.
+Cohorts and regrouping
+    The runs whose states hold the same landmark slots (the same ids in the same order)
+    form a *cohort* and share one batch.  At every epoch each cohort is split by what its
+    members do there - the same epoch steps and the same observed landmark ids (hence the
+    same updates and augmentations) - each part runs the epoch as one batch, and the parts
+    are regrouped into cohorts by the slots they then hold.  Runs whose truths differ (an
+    uncertain start: landmarks come into view at other epochs, runs end at other steps)
+    thus split where they differ and merge again where they agree: a run is batched only
+    with runs doing the same computation on other numbers, so no regrouping can change a
+    result.  Joint mode with known association and batchable models
+    (:attr:`SlamProblem.batchable`: the standard-error problems) only; nearest-neighbour
+    association (whose slots depend on each run's own estimates), local mode and the
+    variants run per run, through ``run_problem``.
 
-Every result is what ``run_problem`` returns for that run (``tests/slam/test_batch.py``):
-a failing run ends alone with the per-run reason (:func:`estimators.batch.run_batch`).
+Every result is what ``run_problem`` returns for that run (``tests/slam/test_batch_campaign.py``):
+a failing run ends alone with the per-run reason (:func:`estimators.batch.advance`).
 """
 
 from __future__ import annotations
@@ -36,15 +39,11 @@ __all__ = ["run_problems", "step_groups"]
 
 
 def step_groups(problems: Sequence[SlamProblem], batched: bool) -> list[list[int]]:
-    """Indices of the problems grouped by their epochs (runs with the same epochs can share
-    a batch; within a group the observation layouts may still differ: regrouped epoch by
-    epoch); every problem alone when ``batched`` is false."""
+    """The problems that may share batches: all of them (epochs and layouts are regrouped
+    epoch by epoch), or each alone when ``batched`` is false."""
     if not batched:
         return [[i] for i in range(len(problems))]
-    out: dict[bytes, list[int]] = {}
-    for i, p in enumerate(problems):
-        out.setdefault(np.asarray(p.steps, dtype=np.int64).tobytes(), []).append(i)
-    return list(out.values())
+    return [list(range(len(problems)))]
 
 
 def run_problems(problems: Sequence[SlamProblem], filter_name: str, *, mode: str = "joint",
@@ -72,7 +71,7 @@ def run_problems(problems: Sequence[SlamProblem], filter_name: str, *, mode: str
 
 def _structure(problem: SlamProblem, step: int, slot_ids: list[int]
                ) -> tuple[list, list, list, list[int]]:
-    """``(matched (slot, index), new indices, late (slot, index), slot ids after)`` of
+    """``(matched (slot, offset), new offsets, late (slot, offset), slot ids after)`` of
     ``problem``'s observations at ``step`` for a state holding ``slot_ids`` (known ids,
     Bailey's order: the per-run association's)."""
     sl = problem.observations.get(step)
@@ -82,7 +81,7 @@ def _structure(problem: SlamProblem, step: int, slot_ids: list[int]
     slot_of = {lid: s for s, lid in enumerate(ids)}
     n_before = len(ids)
     matched, new, late = [], [], []
-    for i, lid in enumerate(problem.obs_id[sl], start=sl.start or 0):
+    for i, lid in enumerate(problem.obs_id[sl]):  # i: the offset within the step's slice
         slot = slot_of.get(int(lid), -1)
         if slot >= n_before:
             late.append((slot, i))
@@ -115,23 +114,24 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
     p0 = problems[0]
     base = filter_name.partition("-")[0]
     filt = make_filter(base, **settings_for(base, filter_params or {}))
-    ops = _JointSteps(filt, p0)
-    lay, steps = p0.layout, p0.steps
+    ops = _JointSteps(filt, p0)  # its predict; updates build each member group's model
+    lay = p0.layout
     nv, nvt = lay.vehicle_ambient, lay.vehicle_dim
-    B, E = len(problems), len(steps)
+    steps = [np.asarray(p.steps) for p in problems]
+    n_ep = np.array([len(st) for st in steps])
+    B, E = len(problems), int(n_ep.max())
     rows = np.arange(nvt) if p0.record_rows is None else np.asarray(p0.record_rows)
     poses = np.full((B, E, nv), np.nan)
     covs = np.full((B, E, len(rows), len(rows)), np.nan)
     var = np.full((B, E, nvt), np.nan)
-    obs = np.stack([np.asarray(p.obs, dtype=float) for p in problems])  # (B, M, dz)
-    truth = (None if p0.truth is None else
-             np.stack([np.asarray(p.truth, dtype=float) for p in problems]))
+    obs = [np.asarray(p.obs, dtype=float) for p in problems]
+    truth = None if p0.truth is None else [np.asarray(p.truth, dtype=float) for p in problems]
     maps = BatchMapRecorder(lay, B, E, p0.true_landmarks)
     runs = BatchRuns(B)
     final_ids: list[list[int]] = [[] for _ in range(B)]
 
     def transition(e: int, b: Belief, live: Array):
-        k0, k1 = int(steps[e - 1]), int(steps[e])
+        k0, k1 = int(steps[live[0]][e - 1]), int(steps[live[0]][e])
         model, _ = p0.motion(k0, k1, None)  # type: ignore[arg-type]
         u = np.stack([np.asarray(problems[r].motion(k0, k1, None)[1])  # type: ignore[arg-type]
                       for r in live])
@@ -140,33 +140,40 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
     def check(e: int, b: Belief, live: Array) -> None:
         if truth is None:
             return
-        k1, d = int(steps[e]), p0.position_dims
-        err = np.linalg.norm(b.mean[:, :d] - truth[live, k1, :d], axis=1)
+        k1, d = int(steps[live[0]][e]), p0.position_dims
+        err = np.linalg.norm(b.mean[:, :d] - np.stack([truth[r][k1, :d] for r in live]), axis=1)
         for j in np.flatnonzero(err > diverge_m):
             if len(live) == 1:
                 raise Divergence(f"vehicle error above {diverge_m} m at step {k1} "
                                  f"(position error {err[j]:.3g} m)")
             raise Divergence("a member left its bounds")  # found member by member
 
-    def hooks(structure: tuple[list, list, list, list[int]], n_before: int):
+    def hooks(structure: tuple[list, list, list, list[int]], n_before: int, k: int):
         matched, new, late, ids = structure
+        def gather(live: Array, index: Array) -> tuple[Array, Array]:
+            """The members' observations (B, k·dz) at the offsets ``index`` within their
+            own slice of step ``k`` (runs' observation arrays differ in length)."""
+            starts = [problems[r].observations[k].start or 0 for r in live]
+            z = np.stack([obs[r][s + index] for r, s in zip(live, starts)])
+            return z.reshape(len(live), -1), starts[0] + index
 
         def correct(e: int, b: Belief, live: Array) -> tuple[Belief, list[Innovation]]:
-            z_of = obs[live]
             inns = []
             if matched:
                 slots, index = (np.array(v) for v in zip(*matched))
-                b, inn = ops.update(b, slots, index, z_of[:, index].reshape(len(live), -1))
+                z, at = gather(live, index)
+                b, inn = filt.update(b, problems[int(live[0])].observe(slots, at), z)
                 inns.append(inn)
             if new:
-                index = np.array(new)
-                z_new = z_of[:, index].reshape(len(live), -1)
-                b = filt.predict(b, p0.augment(n_before, z_new[0], index), z_new)
+                z, at = gather(live, np.array(new))
+                b = filt.predict(b, problems[int(live[0])].augment(n_before, z[0], at), z)
             if late:
                 slots, index = (np.array(v) for v in zip(*late))
-                b, inn = ops.update(b, slots, index, z_of[:, index].reshape(len(live), -1))
+                z, at = gather(live, index)
+                b, inn = filt.update(b, problems[int(live[0])].observe(slots, at), z)
                 inns.append(inn)
             return b, inns
+
 
         def record(e: int, b: Belief, live: Array) -> None:
             poses[live, e] = b.mean[:, :nv]
@@ -180,22 +187,28 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
 
     cohorts: list[tuple[Belief, Array, list[int]]] = [(_initial(filt, problems), np.arange(B),
                                                        [])]
+    finals: dict[int, Belief] = {}
     with np.errstate(divide="raise", over="raise", invalid="raise", under="ignore"):
         for e in range(E):
-            k = int(steps[e])
             parts: dict[tuple[int, ...], list[tuple[Belief, Array]]] = {}
             for b, live, ids in cohorts:
                 by_layout: dict[tuple[int, ...], list[int]] = {}
                 for j, r in enumerate(live):
+                    if e >= n_ep[r]:  # the run has ended: its belief is final
+                        finals[int(r)] = member(b, j)
+                        final_ids[r] = ids
+                        continue
+                    k = int(steps[r][e])
                     sl = problems[r].observations.get(k)
-                    key = () if sl is None else tuple(int(i) for i in problems[r].obs_id[sl])
+                    key = (k, int(steps[r][e - 1]) if e else -1,
+                           *(() if sl is None else (int(i) for i in problems[r].obs_id[sl])))
                     by_layout.setdefault(key, []).append(j)
-                for js in by_layout.values():
+                for key, js in by_layout.items():
                     sub, lv = (b, live) if len(js) == len(live) else (take(b, js), live[js])
-                    structure = _structure(problems[int(lv[0])], k, ids)
+                    structure = _structure(problems[int(lv[0])], key[0], ids)
                     for r in lv:
                         final_ids[r] = ids
-                    h = hooks(structure, len(ids))
+                    h = hooks(structure, len(ids), key[0])
 
                     def step(e: int, bb: Belief, lv: Array, h=h) -> Belief:
                         return runs.epoch(ops, h, e, bb, lv)
@@ -206,7 +219,6 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
             cohorts = [(p[0][0] if len(p) == 1 else stack([x[0] for x in p]),
                         np.concatenate([x[1] for x in p]), list(key))
                        for key, p in parts.items()]
-    finals: dict[int, Belief] = {}
     for b, live, ids in cohorts:
         for j, r in enumerate(live):
             finals[int(r)] = member(b, j)
@@ -219,8 +231,9 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
         lm_cov = np.array([b.cov_block(p0.landmark_rows(s)) for s in range(n_lm)]
                           ).reshape(n_lm, nl, nl)
         ids = np.array(final_ids[r][:n_lm], dtype=int)
-        out.append(SlamResult(filter_name, steps, poses[r], covs[r], ids, lm, lm_cov,
-                              res.epochs_done, res.nis_epoch, var[r], maps.series(r),
+        m = n_ep[r]
+        out.append(SlamResult(filter_name, steps[r], poses[r, :m], covs[r, :m], ids, lm, lm_cov,
+                              res.epochs_done, res.nis_epoch, var[r, :m], maps.series(r, m),
                               nis=res.nis, nis_dof=res.nis_dof,
                               time_s=max(res.time_s - maps.seconds / B, 0.0),
                               diverged=res.diverged, failure=res.failure))

@@ -157,9 +157,9 @@ class BatchMapRecorder:
         out[:, 4] = finite.sum(axis=1)
         return out
 
-    def series(self, run: int) -> MapSeries:
-        """Member ``run``'s recorded series (single precision)."""
-        n, scored, sq, nees, count, trace = self.values[run].astype(np.float32)
+    def series(self, run: int, epochs: int | None = None) -> MapSeries:
+        """Member ``run``'s recorded series over its first ``epochs`` (single precision)."""
+        n, scored, sq, nees, count, trace = self.values[run, :, :epochs].astype(np.float32)
         return MapSeries(n, scored, sq, nees, count, trace, self.layout.landmark_dim)
 
 

@@ -14,7 +14,7 @@ from tests.small_worlds import small_world
 
 def test_runs_of_different_lengths_are_summarised_and_drawn():
     world = small_world(runs=3, filters=("ekf",), vehicle={"initial_sigma_xy_m": 0.5})
-    result = run_campaign(world, runs=3, workers=1)
+    result = run_campaign(world, runs=3, workers=1, executor="per-run")
     lengths = {len(o.scores["ekf"].err) for o in result.outcomes}
     assert len(lengths) > 1, "the runs should differ in length for this test to mean anything"
     entry = result.summary["filters"]["ekf"]
