@@ -92,7 +92,7 @@ def test_a_batch_equals_the_runs_one_by_one(name):
     u = np.tile([0.1, 0.05], (R, 1))
     z = np.column_stack([rng.uniform(8, 12, R), rng.uniform(-3, 3, R)])
     worst = 0.0
-    for step in range(3):
+    for _ in range(3):
         batch = filt.predict(batch, TRANSITION, u)
         singles = [filt.predict(b, TRANSITION, u[r]) for r, b in enumerate(singles)]
         batch, binn = filt.update(batch, MEASUREMENT, z)
@@ -181,9 +181,13 @@ def test_a_failing_run_ends_alone_with_its_per_run_reason(name):
     for r, b0 in enumerate(singles):
         correct.run = check.run = r
         mine = {}
+
+        def keep(e, b, r=r, mine=mine):
+            mine[(e, r)] = np.array(b.mean)
+
         ref = run_epochs(filt, b0, 6, transition=lambda e, b: transition(e, b),
                          correct=lambda e, b: correct(e, b), check=lambda e, b: check(e, b),
-                         record=lambda e, b, r=r: mine.__setitem__((e, r), np.array(b.mean)))
+                         record=keep)
         got = results[r]
         assert got.failure == ref.failure and got.epochs_done == ref.epochs_done
         _close(got.belief.mean, ref.belief.mean, "last belief")
