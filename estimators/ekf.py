@@ -74,6 +74,8 @@ class ExtendedKalmanFilter:
     name: str = "ekf"
     eps: float = 1e-6
     supports_partitioned: ClassVar[bool] = True
+    #: Its steps accept a batch of beliefs (leading axis: the runs; :mod:`estimators.batch`).
+    batched: ClassVar[bool] = True
 
     def init(self, mean: Array, space: Space, cov: Array | None = None,
              sqrt: Array | None = None) -> Gaussian:

@@ -1,8 +1,8 @@
 """The filters by name, as the command line, the code and ``summary.json`` name them.
 
-===========  =========================================================  ======================
+===========  =========================================================  ==========================
 name         filter                                                     settings
-===========  =========================================================  ======================
+===========  =========================================================  ==========================
 ``ekf``      extended Kalman filter (Joseph form)                       -
 ``ckf``      cubature Kalman filter, dense covariance                   -
 ``ukf``      unscented Kalman filter, dense covariance                  ``alpha beta kappa``
@@ -12,7 +12,10 @@ name         filter                                                     settings
 ``srcdkf``   square-root central-difference Kalman filter               ``h``
 ``svdckf``   cubature Kalman filter with an SVD-factored covariance     -
 ``hommukf``  high-order moment-matching UKF ([Ding 2017]), dense        ``skewness kurtosis``
-===========  =========================================================  ======================
+``iekf``     iterated EKF (Gauss-Newton update, step control)           ``iterations tolerance``
+``isrckf``   SRCKF with the iterated posterior-linearisation update     ``iterations tolerance``
+``isrukf``   SRUKF with the iterated posterior-linearisation update     as ``srukf`` and ``isrckf``
+===========  =========================================================  ==========================
 
 Robust filters (:data:`ROBUST_FILTER_NAMES`; they do *not* reduce to the Kalman filter
 on a linear model for finite ``gamma``, so they are kept out of :data:`FILTER_NAMES`):
@@ -36,6 +39,9 @@ Settings (:data:`SETTINGS`; :data:`DEFAULTS` when not given):
   (:mod:`estimators.hinf`).
 * ``skewness``, ``kurtosis``: the standardised moments the HoMM rule matches (0 and 3, a
   Gaussian's, where its points are Julier's κ = 3 − n set).
+* ``iterations``, ``tolerance``: the iterated updates' most iterations and the whitened
+  step below which they stop (:mod:`estimators.iterated`; 1 iteration is the one-pass
+  update).
 """
 
 from __future__ import annotations
@@ -47,28 +53,31 @@ from typing import Any
 from .ekf import ExtendedKalmanFilter
 from .hinf import MIN_GAMMA, HInfinityFilter
 from .homm import HighOrderMoment
+from .iterated import IteratedEKF, IteratedSigmaPointFilter
 from .rules import CentralDifference, Cubature, Unscented
 from .sigma import SigmaPointFilter
 
 Filter = ExtendedKalmanFilter | SigmaPointFilter | HInfinityFilter
 
 FILTER_NAMES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf",
-                                 "svdckf", "hommukf")
+                                 "svdckf", "hommukf", "iekf", "isrckf", "isrukf")
 
 ROBUST_FILTER_NAMES: tuple[str, ...] = ("srchinf", "uthinf")
 
 _UT = ("alpha", "beta", "kappa")
 _HINF = ("gamma", "on_failure")
+_IT = ("iterations", "tolerance")
 SETTINGS: dict[str, tuple[str, ...]] = {
     "ekf": (), "ckf": (), "ukf": _UT, "cdkf": ("h",), "srckf": (), "srukf": _UT,
     "srcdkf": ("h",), "svdckf": (), "hommukf": ("skewness", "kurtosis"),
     "srchinf": _HINF, "uthinf": _UT + _HINF,
+    "iekf": _IT, "isrckf": _IT, "isrukf": _UT + _IT,
 }
 """The settings each filter takes (keyword arguments of :func:`make_filter`)."""
 
 DEFAULTS: dict[str, Any] = {"alpha": 1.0, "beta": 2.0, "kappa": 0.0, "h": math.sqrt(3.0),
                             "gamma": 5.0, "on_failure": "raise", "skewness": 0.0,
-                            "kurtosis": 3.0}
+                            "kurtosis": 3.0, "iterations": 5, "tolerance": 1e-9}
 """A setting's value when :func:`make_filter` is not given it (module docstring)."""
 
 __all__ = ["DEFAULTS", "FILTER_NAMES", "MIN_GAMMA", "ROBUST_FILTER_NAMES", "SETTINGS", "Filter",
@@ -78,6 +87,12 @@ __all__ = ["DEFAULTS", "FILTER_NAMES", "MIN_GAMMA", "ROBUST_FILTER_NAMES", "SETT
 def _build(name: str, s: dict[str, Any]) -> Filter:
     if name == "ekf":
         return ExtendedKalmanFilter()
+    if name == "iekf":
+        return IteratedEKF(iterations=s["iterations"], tolerance=s["tolerance"])
+    if name in ("isrckf", "isrukf"):
+        rule = Cubature() if name == "isrckf" else Unscented(s["alpha"], s["beta"], s["kappa"])
+        return IteratedSigmaPointFilter(name, rule, "sqrt", iterations=s["iterations"],
+                                        tolerance=s["tolerance"])
     if name in ("ckf", "srckf", "svdckf"):
         return SigmaPointFilter(name, Cubature(), {"ckf": "dense", "srckf": "sqrt",
                                                    "svdckf": "svd"}[name])
@@ -134,6 +149,9 @@ def describe_settings(filt: Filter) -> str:
         parts.append(f"h = {rule.h:.4g}")
     elif isinstance(rule, HighOrderMoment):
         parts.append(f"skewness {rule.skewness}, kurtosis {rule.kurtosis}")
+    its = getattr(filt, "iterations", None)
+    if its is not None:
+        parts.append(f"at most {its} iterations, tolerance {filt.tolerance:g}")
     if isinstance(filt, HInfinityFilter):
         parts.append(f"γ = {filt.gamma:g}, on failure: {filt.on_failure}")
     return ", ".join(p for p in parts if not p.startswith("(")) + "".join(

@@ -297,6 +297,8 @@ class HInfinityFilter:
     sqrt_method: SqrtMethod = "cholesky"
     #: No block-local steps: the H∞ bound acts on the whole joint covariance.
     supports_partitioned: ClassVar[bool] = False
+    #: Its steps accept a batch of beliefs (leading axis: the runs; :mod:`estimators.batch`).
+    batched: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         _check_gamma(self.gamma)

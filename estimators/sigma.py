@@ -33,7 +33,7 @@ over the state augmented with the noise input.  A transition with its own
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -154,6 +154,8 @@ class SigmaPointFilter:
     rule: PointRule
     form: Form = "sqrt"
     sqrt_method: SqrtMethod = "cholesky"  # how a dense belief is factored to draw points
+    #: Its steps accept a batch of beliefs (leading axis: the runs; :mod:`estimators.batch`).
+    batched: ClassVar[bool] = True
 
     def init(self, mean: Array, space: Space, cov: Array | None = None,
              sqrt: Array | None = None) -> Belief:

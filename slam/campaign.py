@@ -142,15 +142,19 @@ def run_task_batch(args: tuple) -> list[RunOutcome]:
         return KINDS[world.kind].run_batch(*args)
 
 
+BATCH = 25
+"""Runs per batched task by default.  The chunks do not depend on the executor or the
+number of workers, so a campaign gives the same bits on any of them (a different batch size
+changes results only at round-off: the members of a batch are computed together)."""
+
 EXECUTORS = ("batched", "per-run")
 """How a campaign runs its runs: ``batched`` (chunks of runs through the filters at once,
 where the kind has the batched path) or ``per-run`` (one run per task, the reference)."""
 
 
-def batch_chunks(runs: int, workers: int, batch: int | None = None) -> list[range]:
-    """Consecutive chunks of the run indices: ``batch`` runs each, by default as many as
-    share the ``workers`` evenly (one chunk per worker, at most 64 runs)."""
-    size = batch or min(64, -(-runs // max(workers, 1)))
+def batch_chunks(runs: int, batch: int | None = None) -> list[range]:
+    """Consecutive chunks of the run indices, ``batch`` (default :data:`BATCH`) runs each."""
+    size = batch or BATCH
     return [range(i, min(i + size, runs)) for i in range(0, runs, size)]
 
 
@@ -180,13 +184,13 @@ def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[
     return [(world, i, s, list(filters), i == 0) for i, s in enumerate(run_seeds(seed, runs))]
 
 
-def batch_tasks(world, filters: Sequence[str], runs: int, seed: int, workers: int,
+def batch_tasks(world, filters: Sequence[str], runs: int, seed: int,
                 batch: int | None = None) -> list[tuple]:
     """The batched task arguments: chunks of runs (:func:`batch_chunks`) with their seeds
     (the same seed per run as :func:`campaign_tasks`)."""
     seeds = run_seeds(seed, runs)
     return [(world, list(c), [seeds[i] for i in c], list(filters), True)
-            for c in batch_chunks(runs, workers, batch)]
+            for c in batch_chunks(runs, batch)]
 
 
 def _count(counter: Any) -> int:
@@ -233,7 +237,7 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     batched = executor == "batched" and KINDS[world.kind].run_batch is not None
     if batched:
         fn: Callable = run_task_batch
-        tasks = batch_tasks(world, filters, runs, seed, 1 if mapper else workers, batch)
+        tasks = batch_tasks(world, filters, runs, seed, batch)
     else:
         fn, tasks = run_task, campaign_tasks(world, filters, runs, seed)
     outcomes: list[RunOutcome] = []

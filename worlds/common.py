@@ -159,6 +159,8 @@ RULE_SETTINGS: dict[str, dict[str, ws.Field]] = {
              "on_failure": ws.String(choices=("raise", "kalman"))},
     "homm": {"skewness": ws.Number(ws.Interval(-10.0, 10.0)),
              "kurtosis": ws.Number(ws.Interval(1.0, 100.0))},
+    "iterated": {"iterations": ws.Integer(ws.Interval(1, 100)),
+                 "tolerance": ws.Number(ws.Interval(0.0, 1.0))},
 }
 """The ``[filters.<table>]`` settings tables and their keys (the names of
 :func:`estimators.make_filter`'s settings; every key required once the table is given)."""
@@ -208,6 +210,7 @@ class TunedFilters:
     central_difference: dict[str, Any] | None = None
     hinf: dict[str, Any] | None = None
     homm: dict[str, Any] | None = None
+    iterated: dict[str, Any] | None = None
 
     def settings_of(self, name: str) -> dict[str, Any]:
         """The stated settings of workbench filter ``name`` (its base filter's keywords)."""
@@ -238,7 +241,8 @@ class TunedFilters:
 TABLE_KEYS = {"unscented": "alpha, beta, kappa (alpha = 1, beta = 2, kappa = 0 is the cubature "
               "point set; say which standard you take)",
               "central_difference": "h (sqrt(3) is optimal for a Gaussian prior)",
-              "hinf": "gamma and on_failure", "homm": "skewness and kurtosis"}
+              "hinf": "gamma and on_failure", "homm": "skewness and kurtosis",
+              "iterated": "iterations and tolerance"}
 
 
 def check_settings(filters: Any, names: Sequence[str], where: ws.Where) -> None:

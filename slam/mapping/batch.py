@@ -55,8 +55,9 @@ def run_problems(problems: Sequence[SlamProblem], filter_name: str, *, mode: str
     runs each alone."""
     kw = dict(mode=mode, association=association, gates=gates, diverge_m=diverge_m,
               filter_params=filter_params)
+    base = filter_name.partition("-")[0]
     can = (batched and mode == "joint" and association == "known"
-           and all(p.batchable for p in problems))
+           and all(p.batchable for p in problems) and make_filter(base).batched)
     out: list[SlamResult | None] = [None] * len(problems)
     for group in step_groups(problems, can):
         if len(group) == 1:

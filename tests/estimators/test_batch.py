@@ -84,7 +84,18 @@ def _close(a, b, what):
     return err
 
 
-@pytest.mark.parametrize("name", ALL)
+BATCHED = [n for n in ALL if make_filter(n).batched]
+
+
+def test_the_filters_without_a_batched_update_refuse_a_batch():
+    for name in sorted(set(ALL) - set(BATCHED)):
+        filt = make_filter(name)
+        _, batch = _beliefs(filt, np.random.default_rng(0))
+        with pytest.raises(ValueError, match="no batched"):
+            filt.update(batch, MEASUREMENT, np.zeros((R, 2)))
+
+
+@pytest.mark.parametrize("name", BATCHED)
 def test_a_batch_equals_the_runs_one_by_one(name):
     filt = make_filter(name, **SETTINGS.get(name, {}))
     rng = np.random.default_rng(1)

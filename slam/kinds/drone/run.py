@@ -56,6 +56,9 @@ FILTER_DESCRIPTIONS = {
     "srukf": "quaternion SRUKF-SLAM: square-root unscented filter",
     "srcdkf": "quaternion SRCDKF-SLAM: square-root central-difference filter",
     "svdckf": "cubature Kalman filter with an SVD-factored covariance",
+    "iekf": "iterated EKF-SLAM: Gauss-Newton measurement update with step control",
+    "isrckf": "square-root cubature filter, iterated posterior-linearisation update",
+    "isrukf": "square-root unscented filter, iterated posterior-linearisation update",
 }
 FILTER_DESCRIPTIONS.update({
     f"{b}-inv": f"{FILTER_DESCRIPTIONS[b]}; right-invariant error on SE_2+n(3) x IMU biases"

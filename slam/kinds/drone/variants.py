@@ -52,7 +52,8 @@ from slam.kinds.drone.models import (
 )
 
 #: The filters with an invariant variant, and every variant name (``<base>-inv``).
-INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf")
+INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf",
+                                    "iekf", "isrckf", "isrukf")
 VARIANT_NAMES: tuple[str, ...] = tuple(f"{b}-inv" for b in INVARIANT_BASES)
 #: Every filter name a drone world accepts.
 DRONE_FILTERS: tuple[str, ...] = FILTER_NAMES + VARIANT_NAMES

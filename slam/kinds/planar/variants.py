@@ -45,7 +45,8 @@ from estimators.slam_group import SlamGroup, invariant_h, invariant_jacobians
 from slam.mapping.problem import variant_problem
 
 #: Variant suffixes and the filters each applies to.
-INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf")
+INVARIANT_BASES: tuple[str, ...] = ("ekf", "ckf", "ukf", "cdkf", "srckf", "srukf", "srcdkf",
+                                    "iekf", "isrckf", "isrukf")
 VARIANTS: dict[str, tuple[str, ...]] = {"inv": INVARIANT_BASES, "linv": INVARIANT_BASES,
                                         "fej": ("ekf",)}
 #: Every variant name (``<base>-<suffix>``).

@@ -24,10 +24,12 @@ MODES = ("local", "joint")
 
 
 LOG_SETTINGS = {"unscented": {"alpha": 1.0, "beta": 0.0, "kappa": JULIER_KAPPA},
-                "central_difference": {"h": math.sqrt(3.0)}}
+                "central_difference": {"h": math.sqrt(3.0)},
+                "iterated": {"iterations": 5, "tolerance": 1e-9}}
 """The settings of the filters run on a recorded log (there is no world file to state
 them; the report prints them): Julier's original unscented set (alpha = 1, beta = 2,
-kappa = 0 would be the cubature point set) and the central-difference step sqrt(3)."""
+kappa = 0 would be the cubature point set), the central-difference step sqrt(3), and for
+the iterated updates at most 5 iterations down to a whitened step of 1e-9."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,90 @@
+"""``python -m benchmarks.campaign_speed``: the batched and the per-run path on the same
+campaign, in one process, one maths thread, CPU seconds and their ratio (JSON on stdout).
+
+For each world the two executors run the same campaign (same runs, seed and filters;
+``workers=1``), alternating ``--reps`` times; the figures are CPU seconds of this process
+(``time.process_time``), so another job on the machine changes them less than wall time
+does, and the ratio comes from runs made back to back.  The two summaries are also compared
+(every key but timings, 1e-9 relative; the number of differing keys is reported).
+
+Defaults (the issue's campaigns): ``bailey`` 50 runs (its 4 filters + smoother), ``webmap``
+100 runs (ekf, srckf, srckf-inv), ``drone`` 25 runs, ``star-sensor`` 50 runs.  Worlds or run
+counts can be narrowed, e.g. ``--worlds bailey --runs 20``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from dataclasses import dataclass
+
+from estimators.threads import single_thread_blas
+
+
+@dataclass(frozen=True)
+class Case:
+    world: str
+    runs: int
+    filters: tuple[str, ...] | None = None
+
+
+CASES = {
+    "bailey": Case("bailey", 50),
+    "webmap": Case("webmap", 100, ("ekf", "srckf", "srckf-inv")),
+    "drone": Case("drone", 25),
+    "star-sensor": Case("star-sensor", 50),
+}
+
+
+def _campaign(case: Case, runs: int, executor: str) -> tuple[float, dict]:
+    from slam.campaign import run_campaign
+    from slam.registry import load_world
+
+    world = load_world(case.world)
+    t0 = time.process_time()
+    result = run_campaign(world, runs=runs, filters=case.filters, workers=1, executor=executor)
+    return time.process_time() - t0, result.summary
+
+
+def measure(case: Case, runs: int, reps: int) -> dict:
+    """Both paths ``reps`` times, alternating; CPU seconds, ratios and the summary check."""
+    from tests.golden.regenerate import differences, strip_timings
+
+    times: dict[str, list[float]] = {"per-run": [], "batched": []}
+    summaries = {}
+    for rep in range(reps):
+        order = ("per-run", "batched") if rep % 2 == 0 else ("batched", "per-run")
+        for ex in order:
+            seconds, summary = _campaign(case, runs, ex)
+            times[ex].append(seconds)
+            summaries[ex] = strip_timings(summary)
+    diff = differences(summaries["per-run"], summaries["batched"])
+    ratios = [a / b for a, b in zip(times["per-run"], times["batched"])]
+    return {"world": case.world, "runs": runs, "filters": case.filters,
+            "cpu_s": times, "ratio_per_run_over_batched": ratios,
+            "summary_differences": len(diff), "first_differences": diff[:5]}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.campaign_speed", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--worlds", default=",".join(CASES), help="comma-separated cases")
+    p.add_argument("--runs", type=int, help="runs of every case (default: the case's)")
+    p.add_argument("--reps", type=int, default=1, help="alternating repetitions")
+    args = p.parse_args(argv)
+    out = {"python": platform.python_version(), "machine": platform.machine(), "cases": []}
+    with single_thread_blas():
+        for name in args.worlds.split(","):
+            case = CASES[name]
+            out["cases"].append(measure(case, args.runs or case.runs, args.reps))
+            print(json.dumps(out["cases"][-1]), file=sys.stderr)
+    json.dump(out, sys.stdout, indent=2)
+    print()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
