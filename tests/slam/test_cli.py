@@ -29,6 +29,9 @@ start_heading_deg = 0.0
 
 [filters]
 names = ["ekf", "srckf"]
+
+[filters.central_difference]  # for --filters srcdkf
+h = 1.7320508075688772
 """
 
 
