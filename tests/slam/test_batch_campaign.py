@@ -26,17 +26,69 @@ def _summaries(world, runs: int):
     return out
 
 
-@pytest.mark.parametrize(("sigma", "association"), [(0.0, "known"), (0.3, "known"),
-                                                     (0.0, "nn")])
-def test_planar_batched_summary_equals_the_per_run_one(sigma, association):
+DIFFERENCES = ("delta_mse", "delta_se", "delta_percent", "z")
+
+
+def _equal(per_run: dict, batched: dict) -> list[str]:
+    """Every key to 1e-9 relative, but the ranking's paired differences (differences of two
+    filters' MSEs that may agree to 1e-4, so round-off of 1e-13 in each is 1e-9 of their
+    difference) to 1e-9 of the MSEs they are differences of."""
+    rank_a, rank_b = per_run.pop("ranking"), batched.pop("ranking")
+    head_a, head_b = per_run.pop("headline"), batched.pop("headline")
+    out = differences(per_run, batched)
+    for metric, block in rank_a.items():
+        other = rank_b[metric]
+        rows_a, rows_b = block.pop("rows", {}), other.pop("rows", {})
+        out += differences(block, other, f"ranking.{metric}")
+        for name, ra in rows_a.items():
+            rb = dict(rows_b[name])
+            scale = {"delta_mse": ra["mse"], "delta_se": ra["mse"], "delta_percent": 100.0,
+                     "z": ra["mse"] / ra["delta_se"] if ra["delta_se"] else 0.0}
+            for key in DIFFERENCES:
+                a, b = ra.pop(key), rb.pop(key)
+                if (a is None) != (b is None) or (a is not None
+                                                  and abs(a - b) > 1e-9 * scale[key]):
+                    out.append(f"ranking.{metric}.{name}.{key}: {a!r} != {b!r}")
+            out += differences(ra, rb, f"ranking.{metric}.rows.{name}")
+    if head_a.split(" (")[0] != head_b.split(" (")[0]:  # the same best filter named first
+        out.append(f"headline: {head_a[:60]!r} != {head_b[:60]!r}")
+    return out
+
+
+@pytest.mark.parametrize(("sigma", "filters"), [(0.0, PLANAR), (0.3, ("ekf", "srukf"))])
+def test_planar_batched_summary_equals_the_per_run_one(sigma, filters):
     """sigma 0: every run has the same truth, so one batch throughout; 0.3 m: the truths
-    differ, landmarks come into view at different epochs and the batch is split and
-    regrouped epoch by epoch; nn: per run (the association depends on the estimates)."""
-    world = small_world(runs=4, filters=PLANAR, filter_options={"association": association},
-                        vehicle={"initial_sigma_xy_m": sigma})
-    per_run, batched = _summaries(world, 4)
-    diff = differences(per_run, batched)
+    differ, landmarks come into view at different epochs, runs end at other steps, and the
+    batch is split and regrouped epoch by epoch."""
+    world = small_world(runs=3, filters=filters, vehicle={"initial_sigma_xy_m": sigma})
+    per_run, batched = _summaries(world, 3)
+    diff = _equal(per_run, batched)
     assert not diff, "\n".join(diff[:10])
+
+
+def test_what_cannot_share_a_batch_runs_per_run():
+    """Nearest-neighbour association, local mode, the variants and the iterated filters run
+    per run (their results are then the per-run ones by construction)."""
+    from slam.kinds.planar.slam import planar_problem
+    from slam.mapping import batch
+
+    world = small_world(runs=2, filters=("srckf",))
+    logs = [simulate_planar(world, np.random.default_rng(s))
+            for s in np.random.SeedSequence(0).spawn(2)]
+    calls = []
+    real = batch._run_group
+    batch._run_group = lambda *a, **k: calls.append(a) or real(*a, **k)
+    try:
+        problems = [planar_problem(log) for log in logs]
+        batch.run_problems(problems, "srckf")
+        assert len(calls) == 1
+        for kw in ({"association": "nn"}, {"mode": "local"}):
+            batch.run_problems(problems, "srckf", **kw)
+        batch.run_problems(problems, "iekf", filter_params={})
+        batch.run_problems([planar_problem(log, variant="inv") for log in logs], "srckf-inv")
+        assert len(calls) == 1
+    finally:
+        batch._run_group = real
 
 
 def test_a_failing_run_inside_a_batch_ends_alone_with_its_per_run_reason():
