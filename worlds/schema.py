@@ -26,6 +26,8 @@ from typing import Any, Self
 
 import numpy as np
 
+from worlds.limits import MIN_VARIANCE
+
 NO_VALUE: Any = object()
 REQUIRED: Any = object()
 AS_KEY: Any = object()
@@ -186,6 +188,38 @@ class Number(Field):
         return float(value) * self.scale
 
 
+def check_variance(value: float, power: int, interval: Interval, scale: float,
+                   where: Where, given: Any) -> None:
+    """Refuse a non-zero σ (``power`` 2) or variance (``power`` 1), already in SI units,
+    whose variance ``value**power`` is below :data:`~worlds.limits.MIN_VARIANCE`: its
+    square underflows (to 0 or a subnormal number) in the filters' covariances, which then
+    are not positive definite.  0 stays allowed where ``interval`` allows it."""
+    if value == 0.0 or abs(value) ** power >= MIN_VARIANCE:
+        return
+    lo = MIN_VARIANCE ** (1.0 / power) / scale  # the smallest value in file units
+    zero = "0 or " if 0.0 in interval else ""
+    what = "σ²" if power == 2 else "variance"
+    raise where.error(f"must be {zero}at least {lo:.3g} (below, its {what} in SI units "
+                      f"is under {MIN_VARIANCE:g} and underflows in the filters)", given)
+
+
+class Sigma(Number):
+    """A standard deviation, noise density or H∞ bound (``power`` 2: its square enters a
+    covariance) or a variance or a factor on one (``power`` 1), in ``interval`` and times
+    ``scale`` like a :class:`Number`; when not 0, its variance in SI units must be at least
+    :data:`~worlds.limits.MIN_VARIANCE` (:func:`check_variance`)."""
+
+    def __init__(self, interval: Interval, default: Any = REQUIRED, scale: float = 1.0,
+                 power: int = 2) -> None:
+        super().__init__(interval, default, scale)
+        self.power = power
+
+    def parse(self, value: Any, where: Where) -> float:
+        out = super().parse(value, where)
+        check_variance(out, self.power, self.interval, self.scale, where, value)
+        return out
+
+
 class Integer(Field):
     """A whole number in ``interval``."""
 
@@ -274,6 +308,16 @@ class Vector(Field):
             if v not in self.interval:
                 raise where.item(i).error(f"must be in {self.interval}", v)
         return tuple(float(v) * self.scale for v in value)
+
+
+class SigmaVector(Vector):
+    """A :class:`Vector` of standard deviations, each checked like a :class:`Sigma`."""
+
+    def parse(self, value: Any, where: Where) -> tuple[float, ...]:
+        out = super().parse(value, where)
+        for i, v in enumerate(out):
+            check_variance(v, 2, self.interval, self.scale, where.item(i), value[i])
+        return out
 
 
 class Points(Field):

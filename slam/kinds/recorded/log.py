@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -245,21 +244,6 @@ class _Reader:
             obs_cov.append(C)
         return obs_pose, obs_id, obs, obs_cov
 
-    def check_sizes(self) -> None:
-        """The log's derived sizes against :mod:`worlds.limits`: poses, sightings, the
-        state with every landmark, the measurements of one update."""
-        landmarks = len({lid for _, _, lid, _, _ in self.lms})
-        at_once = max(Counter(i for _, i, _, _, _ in self.lms).values(), default=0)
-        for what, n, limit, why in (
-                ("poses", len(self.chain), limits.MAX_SAMPLES, ""),
-                ("sightings", len(self.lms), limits.MAX_SAMPLES, ""),
-                ("state dimensions", 3 + 2 * landmarks, limits.MAX_STATE,
-                 f"{landmarks} landmarks"),
-                ("measurements in one update", 2 * at_once, limits.MAX_STATE,
-                 f"{at_once} sightings from one pose")):
-            if msg := limits.over(what, n, limit, why):
-                raise self.error(None, msg)
-
 
 def parse_odometry_log(text: str, source: str = "<text>") -> OdometryLog:
     """Parse GTSAM's planar ``ODOMETRY``/``LANDMARK`` text; raises :class:`LogFormatError`."""
@@ -269,7 +253,6 @@ def parse_odometry_log(text: str, source: str = "<text>") -> OdometryLog:
         if s:
             reader.record(no, s.split())
     obs_pose, obs_id, obs, obs_cov = reader.sightings()
-    reader.check_sizes()
     order = np.argsort(np.asarray(obs_pose, dtype=np.int64), kind="stable")
     return OdometryLog(
         pose_ids=np.asarray(reader.chain, dtype=np.int64),
