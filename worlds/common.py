@@ -19,12 +19,20 @@ from worlds import limits
 from worlds.units import DEG, DEG_H
 
 
-def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section]) -> ws.Section:
+def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section],
+          paper: dict[str, ws.Field] | None = None) -> ws.Section:
     """The whole table of a world kind, built into ``into`` (a :class:`WorldBase`): the
     header keys (:func:`~worlds.schema.header`), the kind's ``sections`` and last the
-    free-form ``paper`` table (the paper's claims, passed through to summary.json)."""
-    return ws.Section({**ws.header(kind), **sections, "paper": ws.FreeForm(default=dict)},
-                      into=into)
+    free-form ``paper`` table (the paper's claims, passed through to summary.json), whose
+    keys that the kind's report reads have the types ``paper`` gives
+    (:class:`~worlds.schema.Paper`; ``source`` is text in every kind)."""
+    typed = {"source": ws.TEXT, **(paper or {})}
+    return ws.Section({**ws.header(kind), **sections, "paper": ws.Paper(typed)}, into=into)
+
+
+PAPER_RANGES = {"units": ws.TEXT, "filters.*.pos_err_range_m.*": ws.PAIR}
+"""The ``[paper]`` keys the planar and drone reports read: each filter's quoted error
+range ``[lo, hi]`` (m) per axis (:func:`slam.render.tables.paper_rows`, the figures)."""
 
 
 @dataclass(frozen=True)

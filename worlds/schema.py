@@ -346,10 +346,13 @@ class FreeForm(Field):
         self.default = default
 
     def parse(self, value: Any, where: Where) -> Any:
+        return self._free(value, where)
+
+    def _free(self, value: Any, where: Where) -> Any:
         if isinstance(value, dict):
-            return {k: self.parse(v, where.child(k)) for k, v in value.items()}
+            return {k: self._free(v, where.child(k)) for k, v in value.items()}
         if isinstance(value, list):
-            return [self.parse(v, where.item(i)) for i, v in enumerate(value)]
+            return [self._free(v, where.item(i)) for i, v in enumerate(value)]
         if isinstance(value, str | bool | int):
             return value
         if isinstance(value, float):
@@ -357,6 +360,60 @@ class FreeForm(Field):
                 raise where.error("must be finite", value)
             return value
         raise where.error("must be a string, number, boolean, list or table", str(value))
+
+
+class Table(Field):
+    """A table of any keys (checked further by whoever reads it)."""
+
+    def __init__(self, default: Any = REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: Where) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise where.error("must be a table", value)
+        return value
+
+
+TEXT = String(max_len=10_000)
+"""A free-form table's text (a source, a statement)."""
+REAL = Number(Interval(-math.inf, math.inf))
+"""A free-form table's finite number."""
+PAIR = Vector(2, Interval(-math.inf, math.inf))
+"""A free-form table's ``[lo, hi]`` pair of finite numbers."""
+
+
+class Paper(FreeForm):
+    """The free-form ``[paper]`` table (:class:`FreeForm`, and a table), with the types of
+    the keys a kind's report reads: ``typed`` maps a dotted path inside it (``*`` stands
+    for any one key, e.g. ``"filters.*.pos_err_range_m.*"``) to the :class:`Field` its
+    value must pass; a table on the way to a typed key must be a table.  Other keys pass
+    through unchecked.  The value is returned as written (lists stay lists)."""
+
+    def __init__(self, typed: Mapping[str, Field] | None = None, default: Any = dict) -> None:
+        super().__init__(default)
+        self.typed = tuple((tuple(k.split(".")), f) for k, f in (typed or {}).items())
+
+    def parse(self, value: Any, where: Where) -> Any:
+        out = super().parse(value, where)
+        if not isinstance(out, dict):
+            raise where.error("must be a table", value)
+        self._check(out, (), where)
+        return out
+
+    def _check(self, node: dict[str, Any], path: tuple[str, ...], where: Where) -> None:
+        for key, v in node.items():
+            at, here = where.child(key), (*path, key)
+            for pattern, spec in self.typed:
+                if len(pattern) < len(here) or not all(
+                        p in ("*", k) for p, k in zip(pattern, here)):
+                    continue
+                if len(pattern) == len(here):
+                    spec.parse(v, at)
+                elif not isinstance(v, dict):
+                    raise at.error(f"must be a table (the report reads "
+                                   f"{'.'.join(pattern[len(here):])} in it)", v)
+            if isinstance(v, dict):
+                self._check(v, here, at)
 
 
 @dataclass(frozen=True)

@@ -150,6 +150,11 @@ SMALL = ws.Interval(0.0, 45.0)
 FREQ = ws.positive(100.0)
 WIND = ws.Interval(0.0, 50.0)
 
+PAPER = {"units": ws.TEXT, "claims.ukf.east": ws.TEXT, "claims.ukf.north": ws.TEXT,
+         **{f"claims.uthinf.{k}": ws.REAL
+            for k in ("east_final_arcmin", "north_final_arcmin", "settle_within_s")}}
+"""The ``[paper]`` keys the report reads (the UT-H∞ and UKF claims)."""
+
 WORLD = wc.world(KIND, AlignmentWorld, {
     "duration_s": ws.Number(ws.positive(3600.0)),
     "site": ws.site(85.0, ws.Interval(-500.0, 9000.0), 0.0),
@@ -200,7 +205,7 @@ WORLD = wc.world(KIND, AlignmentWorld, {
         "settle_factor": ws.Number(ws.Interval(1.0, 10.0), default=1.2),
         "divergence_deg": wc.divergence(20.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 

@@ -167,6 +167,11 @@ class AttitudeWorld(wc.WorldBase):
     n_star = wc.epoch_count("star", "star epochs, the first at t = 0")
 
 
+PAPER = {"units": ws.TEXT, "statement": ws.TEXT, "large_error.statement": ws.TEXT,
+         **{f"filters.*.{k}": ws.REAL
+            for k in ("roll_arcsec", "pitch_arcsec", "yaw_arcsec", "time_per_iteration_s")}}
+"""The ``[paper]`` keys the report reads (Table 2 per filter, the statements)."""
+
 WORLD = wc.world(KIND, AttitudeWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "satellite": ws.Section(
@@ -225,7 +230,7 @@ WORLD = wc.world(KIND, AttitudeWorld, {
         },
         into=ScoringSpec,
     ),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 

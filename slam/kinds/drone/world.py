@@ -284,7 +284,7 @@ WORLD = wc.world(KIND, DroneWorld, {
         sensor_noise_scale=ws.Sigma(ws.positive(1e6), default=1.0, power=1),
         divergence_m=ws.Number(ws.positive(1e6), default=25.0),
     ),
-})
+}, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema
 
 RULES = (

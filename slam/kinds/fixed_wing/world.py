@@ -182,6 +182,10 @@ class FixedWingWorld(wc.WorldBase):
 
 
 SPEED = ws.Interval(5.0, 100.0)
+PAPER = {f"table1.*.{k}": ws.REAL for k in ("longitude_m", "latitude_m", "east_velocity_mps",
+                                          "north_velocity_mps", "heading_deg")}
+"""The ``[paper]`` keys the report reads (Table 1's mean errors per filter)."""
+
 WORLD = wc.world(KIND, FixedWingWorld, {
     "duration_s": ws.Number(ws.positive(7_200.0)),
     "site": ws.site(80.0, ws.Interval(-400.0, 10_000.0)),
@@ -241,7 +245,7 @@ WORLD = wc.world(KIND, FixedWingWorld, {
         "accel_mps2": ws.Number(ws.positive(10.0), default=0.05),
         "divergence_deg": wc.divergence(45.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 

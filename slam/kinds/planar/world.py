@@ -215,7 +215,7 @@ WORLD = wc.world(KIND, World, {
     ),
     "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0,
                                names=PLANAR_FILTERS),
-})
+}, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema
 
 

@@ -162,6 +162,10 @@ class ShipWorld(wc.WorldBase):
 ANGLE = ws.Interval(0.0, 45.0)
 PERIOD = ws.Interval(0.5, 600.0)
 
+PAPER = {"units": ws.TEXT, "note": ws.TEXT, "claims.*.roll_pitch_within_arcmin": ws.REAL,
+         "claims.*.yaw_within_arcmin": ws.REAL, "claims.*.yaw": ws.TEXT}
+"""The ``[paper]`` keys the report reads (each filter's claims)."""
+
 WORLD = wc.world(KIND, ShipWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "site": ws.site(89.0, ws.Interval(-100.0, 100.0), 0.0),
@@ -206,7 +210,7 @@ WORLD = wc.world(KIND, ShipWorld, {
         "steady_state_from_s": ws.Number(ws.Interval(0.0, 86_400.0)),
         "divergence_deg": wc.divergence(10.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 

@@ -174,6 +174,10 @@ _FLIGHT = {
     "target_range_m": ws.Number(ws.positive(1e6)),
     "target_apex_m": ws.Number(ws.positive(1e6)),
 }
+PAPER = {k: ws.TEXT for k in ("best_pitch", "worst_pitch", "best_yaw", "worst_yaw",
+                           "best_roll_blind", "blind_area")}
+"""The ``[paper]`` keys the report reads (its figures' statements, shown as text)."""
+
 WORLD = wc.world(KIND, SpinningWorld, {
     "sample_interval_s": ws.Number(ws.Interval(0.001, 1.0)),
     "launch": ws.Section(_LAUNCH, attr=None),
@@ -223,7 +227,7 @@ WORLD = wc.world(KIND, SpinningWorld, {
         "filters": ws.StringList(NAMES, default=list(NAMES)),
         "scale": ws.String(choices=SCALES, default="both"),
     }, required=False, into=SweepSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
