@@ -30,7 +30,7 @@ def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section],
     return ws.Section({**ws.header(kind), **sections, "paper": ws.Paper(typed)}, into=into)
 
 
-PAPER_RANGES = {"units": ws.TEXT, "filters.*.pos_err_range_m.*": ws.PAIR}
+PAPER_RANGES = {"filters.*.pos_err_range_m.*": ws.PAIR}
 """The ``[paper]`` keys the planar and drone reports read: each filter's quoted error
 range ``[lo, hi]`` (m) per axis (:func:`slam.render.tables.paper_rows`, the figures)."""
 

@@ -150,7 +150,7 @@ SMALL = ws.Interval(0.0, 45.0)
 FREQ = ws.positive(100.0)
 WIND = ws.Interval(0.0, 50.0)
 
-PAPER = {"units": ws.TEXT, "claims.ukf.east": ws.TEXT, "claims.ukf.north": ws.TEXT,
+PAPER = {"claims.ukf.east": ws.TEXT,
          **{f"claims.uthinf.{k}": ws.REAL
             for k in ("east_final_arcmin", "north_final_arcmin", "settle_within_s")}}
 """The ``[paper]`` keys the report reads (the UT-H∞ and UKF claims)."""

@@ -167,7 +167,7 @@ class AttitudeWorld(wc.WorldBase):
     n_star = wc.epoch_count("star", "star epochs, the first at t = 0")
 
 
-PAPER = {"units": ws.TEXT, "statement": ws.TEXT, "large_error.statement": ws.TEXT,
+PAPER = {"statement": ws.TEXT, "large_error.statement": ws.TEXT,
          **{f"filters.*.{k}": ws.REAL
             for k in ("roll_arcsec", "pitch_arcsec", "yaw_arcsec", "time_per_iteration_s")}}
 """The ``[paper]`` keys the report reads (Table 2 per filter, the statements)."""

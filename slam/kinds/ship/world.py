@@ -162,7 +162,7 @@ class ShipWorld(wc.WorldBase):
 ANGLE = ws.Interval(0.0, 45.0)
 PERIOD = ws.Interval(0.5, 600.0)
 
-PAPER = {"units": ws.TEXT, "note": ws.TEXT, "claims.*.roll_pitch_within_arcmin": ws.REAL,
+PAPER = {"note": ws.TEXT, "claims.*.roll_pitch_within_arcmin": ws.REAL,
          "claims.*.yaw_within_arcmin": ws.REAL, "claims.*.yaw": ws.TEXT}
 """The ``[paper]`` keys the report reads (each filter's claims)."""
 
