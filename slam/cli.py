@@ -328,7 +328,7 @@ def default_folder(name: str, campaign: dict[str, Any], own: dict[str, Any]) -> 
 
 def _open_world(name: str, mode: str | None):
     """Load WORLD and apply ``--mode``; -> (world, kind, the world's own mode)."""
-    from slam.registry import get_kind, load_world
+    from slam.registry import check_work, get_kind, load_world
     from worlds import WorldError
 
     try:
@@ -342,6 +342,10 @@ def _open_world(name: str, mode: str | None):
             has = (f"modes {', '.join(kind.modes)}" if kind.modes else "no filter modes")
             raise InputError(f"--mode {mode}: world {w.name} (kind {w.kind}) has {has}")
         w = replace(w, filters=replace(w.filters, mode=mode))
+        try:  # the mode changes the filter work
+            check_work(w)
+        except WorldError as exc:
+            raise InputError(f"--mode {mode}: {exc}") from None
     return w, kind, world_mode
 
 
@@ -350,7 +354,8 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
               mode: str | None):
     """``--log FILE``: the log as a one-run world of the recorded-log kind."""
     from slam.kinds.recorded.log import LogFormatError
-    from slam.registry import log_kind
+    from slam.registry import log_kind, open_log
+    from worlds import WorldError
 
     for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
                        (workers, "--workers"), (scheduler, "--scheduler")):
@@ -358,9 +363,8 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
     kind = log_kind()
     try:
-        w = kind.open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None,
-                          mode)
-    except LogFormatError as exc:
+        w = open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None, mode)
+    except (LogFormatError, WorldError) as exc:
         raise InputError(f"--log {exc}") from None
     return w, kind
 

@@ -10,8 +10,8 @@ registry, so adding a kind is one folder plus one registration.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, fields
 from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any, Protocol
@@ -21,9 +21,15 @@ import numpy as np
 from estimators.filters import FILTER_NAMES
 from slam.render.document import KindReport
 from slam.results import RunOutcome
+from worlds.limits import Size
 
 Parser = Callable[[dict[str, Any], str, str, "Traversable | None"], Any]
 """``parse(data, name, source, base) -> world``: validate a TOML table into a world."""
+
+WorkOf = Callable[[Any], Iterable[Size]]
+"""``work(world) -> sizes``: what one run of a validated world costs - its samples, filter
+epochs, state dimension and filter work (:class:`worlds.limits.Size`, each naming the
+key that drives it), in the order they are cheap to compute."""
 
 
 class RunOnce(Protocol):
@@ -100,6 +106,9 @@ class Kind:
         file's list); the standard Kalman-type filters unless the kind says more.
     run_batch : the batched path (:class:`RunBatch`), or ``None`` when the kind only has
         the per-run one; the campaign uses it unless asked for the per-run path.
+    work : what one run of a world of this kind costs (:data:`WorkOf`; required,
+        keyword-only): the registry checks it against :mod:`worlds.limits` before a
+        world is used.
     """
 
     name: str
@@ -112,6 +121,7 @@ class Kind:
     open_log: Callable[[Path, Sequence[str] | None, str | None], Any] | Deferred | None = None
     filters: tuple[str, ...] = FILTER_NAMES
     run_batch: RunBatch | Deferred | None = None
+    work: WorkOf = field(kw_only=True)
 
     def load(self) -> None:
         """Import every :class:`Deferred` part now (the command line does it with Ctrl-C

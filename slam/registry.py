@@ -9,10 +9,13 @@ line, the campaign runner and the report writer look kinds up here and nowhere e
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Any
 
+import worlds.schema as ws
 from slam.kind import Kind
 from slam.kinds import alignment, attitude, drone, fixed_wing, planar, recorded, ship, spinning
+from worlds import limits
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
 
@@ -21,7 +24,15 @@ KINDS: dict[str, Kind] = {}
 
 
 def register(kind: Kind) -> Kind:
-    """Add ``kind`` to the registry (replacing one of the same name) and return it."""
+    """Add ``kind`` to the registry (replacing one of the same name) and return it.
+
+    A kind must declare what a run of its worlds costs (``Kind.work``, a function of the
+    world): ``TypeError`` otherwise."""
+    if not isinstance(kind, Kind):
+        raise TypeError(f"register() takes a slam.kind.Kind, not {type(kind).__name__}")
+    if not callable(getattr(kind, "work", None)):
+        raise TypeError(f"kind {kind.name!r} declares no work (Kind.work: world -> the "
+                        "sizes of one run, checked against worlds.limits)")
     KINDS[kind.name] = kind
     return kind
 
@@ -61,7 +72,39 @@ def world_from_dict(data: dict[str, Any], name: str = "custom", source: str | No
     """
     source = source or f"<{name}>"
     check_nesting(data, source)
-    return _world_kind(data, source).parse(data, name, source, base)
+    kind = _world_kind(data, source)
+    world = kind.parse(data, name, source, base)
+    check_work(world, data)
+    return world
+
+
+def check_work(world: Any, data: dict[str, Any] | None = None) -> None:
+    """Refuse ``world`` if one run of it would cost more than :mod:`worlds.limits`
+    allows: the one place every kind's work (``Kind.work``) is checked, before anything
+    is simulated.  The :class:`~worlds.schema.WorldError` names the world's source, the
+    key that drives the size (shown with its value in ``data``, the file's table, when
+    the file gives one) and both figures."""
+    def error(size: limits.Size, message: str) -> WorldError:
+        value = ws.NO_VALUE
+        if size.key is not None and data is not None:
+            try:
+                given = ws.value_at(data, size.key)
+            except (KeyError, TypeError):
+                given = ws.NO_VALUE
+            if isinstance(given, str | int | float):  # not a list of landmarks
+                value = given
+        return WorldError(world.source, size.key, message, value)
+
+    limits.check_work(get_kind(world.kind).work(world), world.kind, error)
+
+
+def open_log(path: Path, filters: Any = None, mode: str | None = None) -> Any:
+    """A recorded log as a one-run world of the log kind (``slam run --log FILE``), its
+    work checked like a world's (raises the kind's ``LogFormatError`` or a
+    :class:`~worlds.schema.WorldError` naming the file)."""
+    world = log_kind().open_log(Path(path), filters, mode)
+    check_work(world)
+    return world
 
 
 def world_from_document(doc: WorldDocument) -> Any:

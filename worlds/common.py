@@ -3,14 +3,15 @@ fields every validated world has (:class:`WorldBase`), the sampled-sensor and
 joint-filter mixins of their section dataclasses and the world properties counting
 samples and epochs, the checks across keys that recur (a rate dividing another, a
 duration of whole periods, one value below another), and the key specs that recur
-(noise densities, prior σ, the divergence bound), and the whole of a ``parse`` that checks
-nothing else (:func:`parse_checked`)."""
+(noise densities, prior σ, the divergence bound), the whole of a ``parse`` that checks
+nothing else (:func:`parse_checked`), and the work of a run sampled at fixed rates
+(:func:`rate_work`)."""
 
 from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
@@ -18,15 +19,24 @@ import worlds.schema as ws
 from estimators.filters import SETTINGS, describe_settings, make_filter
 from estimators.hinf import MIN_GAMMA
 from estimators.rules import JULIER_KAPPA
+from worlds import limits
 from worlds.units import DEG, DEG_H
 
 
-def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section]) -> ws.Section:
+def world(kind: str, into: type, sections: dict[str, ws.Field | ws.Section],
+          paper: dict[str, ws.Field] | None = None) -> ws.Section:
     """The whole table of a world kind, built into ``into`` (a :class:`WorldBase`): the
     header keys (:func:`~worlds.schema.header`), the kind's ``sections`` and last the
-    free-form ``paper`` table (the paper's claims, passed through to summary.json)."""
-    return ws.Section({**ws.header(kind), **sections, "paper": ws.FreeForm(default=dict)},
-                      into=into)
+    free-form ``paper`` table (the paper's claims, passed through to summary.json), whose
+    keys that the kind's report reads have the types ``paper`` gives
+    (:class:`~worlds.schema.Paper`; ``source`` is text in every kind)."""
+    typed = {"source": ws.TEXT, **(paper or {})}
+    return ws.Section({**ws.header(kind), **sections, "paper": ws.Paper(typed)}, into=into)
+
+
+PAPER_RANGES = {"filters.*.pos_err_range_m.*": ws.PAIR}
+"""The ``[paper]`` keys the planar and drone reports read: each filter's quoted error
+range ``[lo, hi]`` (m) per axis (:func:`slam.render.tables.paper_rows`, the figures)."""
 
 
 @dataclass(frozen=True)
@@ -109,10 +119,11 @@ def below(key: str, other: str) -> ws.Rule:
     return ws.Rule(key, other, operator.lt, "must be below {other} ({limit:g})")
 
 
-def nonnegative(hi: float, scale: float, attr: str, default: Any = ws.REQUIRED) -> ws.Number:
-    """A key in ``[0, hi]`` (file units) times ``scale``, filling the field ``attr``: the
-    shape of a sensor's noise densities and bias spreads."""
-    return ws.Number(ws.Interval(0.0, hi), default, scale).to(attr)
+def nonnegative(hi: float, scale: float, attr: str, default: Any = ws.REQUIRED) -> ws.Sigma:
+    """A σ in ``[0, hi]`` (file units) times ``scale``, filling the field ``attr``: the
+    shape of a sensor's noise densities and bias spreads (0: none; a non-zero one whose
+    square underflows is refused, :class:`~worlds.schema.Sigma`)."""
+    return ws.Sigma(ws.Interval(0.0, hi), default, scale).to(attr)
 
 
 def divergence(default_deg: float) -> ws.Number:
@@ -130,7 +141,26 @@ def attitude_sigma(attr: str, hi_deg: float = 45.0) -> ws.Vector:
 def bias_sigma(hi_deg_h: float) -> ws.Number:
     """The ``initial_bias_sigma_deg_h`` key: a filter's prior gyro-bias σ (deg/h in the
     file, at most ``hi_deg_h``), filling ``initial_bias_sigma_rad_s``."""
-    return ws.Number(ws.positive(hi_deg_h), scale=DEG_H).to("initial_bias_sigma_rad_s")
+    return ws.Sigma(ws.positive(hi_deg_h), scale=DEG_H).to("initial_bias_sigma_rad_s")
+
+
+def rate_work(duration_s: float, samples: tuple[str, str, float], epochs: tuple[str, str, float],
+              state: int, noise: int) -> Iterator[limits.Size]:
+    """The work of a run of ``duration_s`` seconds whose sensor is sampled at a fixed rate
+    and whose filters update at another (:mod:`worlds.limits`): ``samples`` and
+    ``epochs`` are ``(key of the rate, what is counted, rate in Hz)``; ``state`` the
+    filter state's dimension (a constant of the kind) and ``noise`` its process-noise
+    inputs.  Samples ``duration × rate``, epochs ``duration × rate + 1`` (the first at
+    t = 0), filter work :func:`~worlds.limits.filter_work`."""
+    (s_key, s_what, s_rate), (e_key, e_what, e_rate) = samples, epochs
+    n = duration_s * s_rate
+    yield limits.Size("samples", s_what, n, s_key, f"duration_s = {duration_s:g} at {s_rate:g} Hz")
+    m = duration_s * e_rate + 1
+    yield limits.Size("epochs", e_what, m, e_key, f"duration_s = {duration_s:g} at {e_rate:g} Hz")
+    yield limits.Size("state", "state dimensions", state, None)
+    yield limits.Size("work", "units of filter work", limits.filter_work(m, n, state, noise),
+                      s_key, f"{limits.count(m)} epochs, {limits.count(n)} samples, state "
+                      f"{state}, {noise} noise inputs")
 
 
 # --- filter settings ---------------------------------------------------------------------

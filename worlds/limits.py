@@ -17,8 +17,15 @@ largest bundled values are quoted in brackets).
                            mode (5e10, densemap)
 ``MAX_TERRAIN_VERTICES``   vertices of a gridded terrain (9 500)
 ``MAX_FILE_BYTES``         a world, map, mesh or log file (victoria_park.txt: 0.4 MB)
-``MAX_NESTING``            nesting depth of TOML/JSON values (3)
+``MAX_NESTING``            nesting depth of TOML/JSON values, and parts of a dotted TOML
+                           key, checked before parsing (3)
+``MIN_VARIANCE``           smallest non-zero noise variance in SI units (bundled: 1e-23)
 =========================  =============================================================
+
+Every kind declares what one run of a world costs (``Kind.work``): :class:`Size` values
+for its samples, filter epochs, state dimension and filter work, each naming the world
+key that drives it.  The registry checks them here, in one place (:func:`check_work`),
+after the world's keys are checked and before anything is simulated or allocated.
 """
 
 from __future__ import annotations
@@ -26,7 +33,8 @@ from __future__ import annotations
 import math
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
 
@@ -39,6 +47,7 @@ MAX_WORK = 2e11
 MAX_TERRAIN_VERTICES = 4_000_000
 MAX_FILE_BYTES = 64 << 20
 MAX_NESTING = 32
+MIN_VARIANCE = 1e-200
 
 
 def count(n: float) -> str:
@@ -54,6 +63,63 @@ def over(what: str, n: float, limit: float, why: str = "") -> str | None:
         return None
     why = f" ({why})" if why else ""
     return f"the run would need {count(n)} {what}{why}; at most {count(limit)} are allowed"
+
+
+BOUNDS = ("samples", "epochs", "state", "work")
+"""The sizes every kind's work must state (:func:`check_work`); a kind may state more
+(``"vertices"``: a gridded terrain)."""
+
+
+def limit_of(bound: str) -> float:
+    """The limit of a size of kind ``bound`` (read when checked: one place to change)."""
+    return {"samples": MAX_SAMPLES, "epochs": MAX_EPOCHS, "state": MAX_STATE,
+            "work": MAX_WORK, "vertices": MAX_TERRAIN_VERTICES}[bound]
+
+
+@dataclass(frozen=True)
+class Size:
+    """One derived size of a run: ``n`` ``what`` (``"gyro samples"``) counted against the
+    limit of ``bound`` (one of :data:`BOUNDS` or ``"vertices"``), driven by the dotted
+    world key ``key`` (``None``: the input file as a whole, e.g. a recorded log); ``why``
+    says how ``n`` follows from the world's numbers."""
+
+    bound: str
+    what: str
+    n: float
+    key: str | None
+    why: str = ""
+
+    def message(self) -> str | None:
+        """The refusal when ``n`` is over its limit, else ``None``."""
+        return over(self.what, self.n, limit_of(self.bound), self.why)
+
+
+def check_work(sizes: Iterable[Size], kind: str,
+               error: Callable[[Size, str], Exception]) -> None:
+    """Raise ``error(size, message)`` for the first of ``sizes`` over its limit.
+
+    ``sizes`` is read in order and may be a generator, so a kind states its cheap sizes
+    first and computes a costly one (landmarks near a long path) only once the sizes
+    before it are within their limits.  A kind whose work leaves out one of
+    :data:`BOUNDS` is a programming error (``TypeError``), not a bad world.
+    """
+    seen = set()
+    for size in sizes:
+        if size.bound not in (*BOUNDS, "vertices"):
+            raise TypeError(f"kind {kind!r}: unknown work bound {size.bound!r}")
+        if msg := size.message():
+            raise error(size, msg)
+        seen.add(size.bound)
+    if missing := [b for b in BOUNDS if b not in seen]:
+        raise TypeError(f"kind {kind!r}: its work states no {', '.join(missing)}")
+
+
+def filter_work(epochs: float, samples: float, state: int, noise: int) -> float:
+    """Units of filter work of a run with a dense state: ``epochs × (state + noise)³``
+    (the factorisations of one predict/update cycle) plus ``samples × (2 (state +
+    noise) + 1) × state`` (every point through every sample of a batched transition)."""
+    width = state + noise
+    return epochs * width**3 + samples * (2 * width + 1) * state
 
 
 def check_file(target: Traversable, error: Callable[[str], Exception],

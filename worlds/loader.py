@@ -21,6 +21,13 @@ import worlds.limits as limits
 from worlds.schema import WorldError
 
 _LINE = re.compile(r"at line (\d+)")
+_STRING_OR_COMMENT = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:[^"\\\n]|\\.)*"|'
+                                r"'[^'\n]*'|#[^\n]*")
+_SEP = r"=\[\]{},\n"
+_LONG_KEY = re.compile(rf"(?<![^{_SEP}])[^{_SEP}.]*(?:\.[^{_SEP}.]*){{{limits.MAX_NESTING},}}")
+"""A run of more than :data:`~worlds.limits.MAX_NESTING` dot-separated parts between two
+separators (``=``, brackets, braces, commas, line ends), matched only from a separator:
+one pass over the text."""
 
 
 @dataclass(frozen=True)
@@ -43,13 +50,34 @@ def bundled_names() -> list[str]:
     return sorted(p.name[:-5] for p in _package().iterdir() if p.name.endswith(".toml"))
 
 
+def check_key_parts(text: str, source: str) -> None:
+    """Refuse a dotted key or table header of more than :data:`~worlds.limits.MAX_NESTING`
+    parts before the text is parsed: ``tomllib``'s time and memory grow with the square of
+    a dotted key's parts (a 200 KB key of 30 000 parts: about 4 GB), and the tables such a
+    key makes would be refused for nesting anyway.  Strings and comments are skipped (a
+    description may hold any number of dots); a pass of two regular expressions."""
+    if text.count(".") < limits.MAX_NESTING:
+        return
+    bare = _STRING_OR_COMMENT.sub(lambda m: "S" + "\n" * m[0].count("\n"), text)
+    if (m := _LONG_KEY.search(bare)) is not None:
+        line = bare.count("\n", 0, m.start()) + 1
+        parts = m[0].count(".") + 1
+        raise WorldError(source, None, f"a dotted key or table header of {limits.count(parts)} "
+                         f"parts; at most {limits.MAX_NESTING} are allowed (tables nest at "
+                         f"most {limits.MAX_NESTING} levels)", line=line)
+
+
 def parse_toml(raw: bytes, source: str) -> dict[str, Any]:
     """TOML text -> table; errors name the file (and line).  Values nested deeper than
-    :data:`~worlds.limits.MAX_NESTING` levels are refused."""
+    :data:`~worlds.limits.MAX_NESTING` levels, and dotted keys of more parts, are refused
+    (the latter before parsing: :func:`check_key_parts`)."""
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise WorldError(source, None, f"not UTF-8 text: {exc}") from None
+    check_key_parts(text, source)
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         match = _LINE.search(str(exc))
         line = int(match.group(1)) if match else None

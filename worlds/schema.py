@@ -26,6 +26,8 @@ from typing import Any, Self
 
 import numpy as np
 
+from worlds.limits import MIN_VARIANCE
+
 NO_VALUE: Any = object()
 REQUIRED: Any = object()
 AS_KEY: Any = object()
@@ -186,6 +188,38 @@ class Number(Field):
         return float(value) * self.scale
 
 
+def check_variance(value: float, power: int, interval: Interval, scale: float,
+                   where: Where, given: Any) -> None:
+    """Refuse a non-zero σ (``power`` 2) or variance (``power`` 1), already in SI units,
+    whose variance ``value**power`` is below :data:`~worlds.limits.MIN_VARIANCE`: its
+    square underflows (to 0 or a subnormal number) in the filters' covariances, which then
+    are not positive definite.  0 stays allowed where ``interval`` allows it."""
+    if value == 0.0 or abs(value) ** power >= MIN_VARIANCE:
+        return
+    lo = MIN_VARIANCE ** (1.0 / power) / scale  # the smallest value in file units
+    zero = "0 or " if 0.0 in interval else ""
+    what = "σ²" if power == 2 else "variance"
+    raise where.error(f"must be {zero}at least {lo:.3g} (below, its {what} in SI units "
+                      f"is under {MIN_VARIANCE:g} and underflows in the filters)", given)
+
+
+class Sigma(Number):
+    """A standard deviation, noise density or H∞ bound (``power`` 2: its square enters a
+    covariance) or a variance or a factor on one (``power`` 1), in ``interval`` and times
+    ``scale`` like a :class:`Number`; when not 0, its variance in SI units must be at least
+    :data:`~worlds.limits.MIN_VARIANCE` (:func:`check_variance`)."""
+
+    def __init__(self, interval: Interval, default: Any = REQUIRED, scale: float = 1.0,
+                 power: int = 2) -> None:
+        super().__init__(interval, default, scale)
+        self.power = power
+
+    def parse(self, value: Any, where: Where) -> float:
+        out = super().parse(value, where)
+        check_variance(out, self.power, self.interval, self.scale, where, value)
+        return out
+
+
 class Integer(Field):
     """A whole number in ``interval``."""
 
@@ -276,6 +310,16 @@ class Vector(Field):
         return tuple(float(v) * self.scale for v in value)
 
 
+class SigmaVector(Vector):
+    """A :class:`Vector` of standard deviations, each checked like a :class:`Sigma`."""
+
+    def parse(self, value: Any, where: Where) -> tuple[float, ...]:
+        out = super().parse(value, where)
+        for i, v in enumerate(out):
+            check_variance(v, 2, self.interval, self.scale, where.item(i), value[i])
+        return out
+
+
 class Points(Field):
     """A list of ``[x, y]`` pairs of finite numbers -> float array ``(n, 2)``."""
 
@@ -302,10 +346,13 @@ class FreeForm(Field):
         self.default = default
 
     def parse(self, value: Any, where: Where) -> Any:
+        return self._free(value, where)
+
+    def _free(self, value: Any, where: Where) -> Any:
         if isinstance(value, dict):
-            return {k: self.parse(v, where.child(k)) for k, v in value.items()}
+            return {k: self._free(v, where.child(k)) for k, v in value.items()}
         if isinstance(value, list):
-            return [self.parse(v, where.item(i)) for i, v in enumerate(value)]
+            return [self._free(v, where.item(i)) for i, v in enumerate(value)]
         if isinstance(value, str | bool | int):
             return value
         if isinstance(value, float):
@@ -313,6 +360,60 @@ class FreeForm(Field):
                 raise where.error("must be finite", value)
             return value
         raise where.error("must be a string, number, boolean, list or table", str(value))
+
+
+class Table(Field):
+    """A table of any keys (checked further by whoever reads it)."""
+
+    def __init__(self, default: Any = REQUIRED) -> None:
+        self.default = default
+
+    def parse(self, value: Any, where: Where) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise where.error("must be a table", value)
+        return value
+
+
+TEXT = String(max_len=10_000)
+"""A free-form table's text (a source, a statement)."""
+REAL = Number(Interval(-math.inf, math.inf))
+"""A free-form table's finite number."""
+PAIR = Vector(2, Interval(-math.inf, math.inf))
+"""A free-form table's ``[lo, hi]`` pair of finite numbers."""
+
+
+class Paper(FreeForm):
+    """The free-form ``[paper]`` table (:class:`FreeForm`, and a table), with the types of
+    the keys a kind's report reads: ``typed`` maps a dotted path inside it (``*`` stands
+    for any one key, e.g. ``"filters.*.pos_err_range_m.*"``) to the :class:`Field` its
+    value must pass; a table on the way to a typed key must be a table.  Other keys pass
+    through unchecked.  The value is returned as written (lists stay lists)."""
+
+    def __init__(self, typed: Mapping[str, Field] | None = None, default: Any = dict) -> None:
+        super().__init__(default)
+        self.typed = tuple((tuple(k.split(".")), f) for k, f in (typed or {}).items())
+
+    def parse(self, value: Any, where: Where) -> Any:
+        out = super().parse(value, where)
+        if not isinstance(out, dict):
+            raise where.error("must be a table", value)
+        self._check(out, (), where)
+        return out
+
+    def _check(self, node: dict[str, Any], path: tuple[str, ...], where: Where) -> None:
+        for key, v in node.items():
+            at, here = where.child(key), (*path, key)
+            for pattern, spec in self.typed:
+                if len(pattern) < len(here) or not all(
+                        p in ("*", k) for p, k in zip(pattern, here)):
+                    continue
+                if len(pattern) == len(here):
+                    spec.parse(v, at)
+                elif not isinstance(v, dict):
+                    raise at.error(f"must be a table (the report reads "
+                                   f"{'.'.join(pattern[len(here):])} in it)", v)
+            if isinstance(v, dict):
+                self._check(v, here, at)
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from typing import Any
 from urllib.parse import quote
 
 from slam.render.provenance import provenance_line, provenance_rows
-from slam.render.tables import html_table, html_text, markdown_table, paper_rows
+from slam.render.tables import html_table, html_text, markdown_table, paper_rows, table_at
 from slam.results import CampaignResult
 
 Figure = Callable[[CampaignResult, Path], None]
@@ -86,7 +86,7 @@ def paper_ranges_section(summary: dict[str, Any], title: str, ours: str) -> Sect
     header, rows = paper_rows(summary)
     if not rows:
         return Section(title, text="The world file quotes no error ranges from a paper.")
-    source = (summary.get("paper") or {}).get("source")
+    source = table_at(summary, "paper").get("source")
     note = ("The paper's ranges were read off its figures, so they are approximate"
             + (f" (source: {source})." if source else ".") + f" {ours}")
     return Section(title, header, rows, note)

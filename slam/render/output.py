@@ -22,6 +22,7 @@ Safety (:func:`prepare_output`, called by the command line before a campaign sta
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import json
 import os
@@ -129,7 +130,7 @@ def read_marker(folder: Path) -> tuple[dict[str, Any], list[str] | None]:
     it lists as written (``None`` when it lists none)."""
     try:
         data = json.loads((folder / MARKER).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # not a marker slam wrote
         data = {}
     data = data if isinstance(data, dict) else {}
     campaign, files = data.get("campaign"), data.get("files")
@@ -144,9 +145,24 @@ def _write_marker(folder: Path, campaign: dict[str, Any] | None,
     (folder / MARKER).write_text(text + "\n", encoding="utf-8")
 
 
+def _loops(path: Path) -> bool:
+    """``path`` (or a link on the way to it) is a symbolic link loop (``ELOOP``)."""
+    try:
+        os.stat(path)
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    except ValueError:  # a NUL character
+        return False
+    return False
+
+
 def _resolve(out_dir: Path) -> Path:
-    """The absolute folder to write: a symbolic link is followed (a dangling one refused)."""
+    """The absolute folder to write: a symbolic link is followed (a dangling one or a loop
+    refused)."""
     path = Path(os.path.abspath(out_dir))
+    if _loops(path):
+        raise OutputError(f"{out_dir}: is or passes through a symbolic link loop (ELOOP: the "
+                          "links never reach a file or folder)")
     if path.is_symlink():
         target = Path(os.path.realpath(path))
         if not target.exists():
@@ -194,6 +210,9 @@ def _make_parents(parent: Path, shown: Path) -> list[Path]:
         try:
             p.mkdir()
         except FileExistsError:
+            if _loops(p):
+                raise OutputError(f"{shown}: {p} is a symbolic link loop (ELOOP: the links "
+                                  "never reach a folder)") from None
             if not p.is_dir():
                 raise OutputError(f"{shown}: {p} exists and is not a folder") from None
         except OSError as exc:

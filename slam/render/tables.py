@@ -262,11 +262,25 @@ def band_note(summary: dict[str, Any], key: str = "anees_bounds_95", what: str =
             f"{100 * MIN_INSIDE:.0f} % of epochs are in the band.")
 
 
+def cell_text(value: Any) -> str:
+    """A table cell as text: a string as it is, anything else a report passes through from
+    a free-form table (a number, a list, ``None``) as JSON (``None``: the missing mark)."""
+    if isinstance(value, str):
+        return value
+    if value is None:
+        return MISSING
+    try:
+        return json.dumps(value, ensure_ascii=False, allow_nan=True, default=str)
+    except (TypeError, ValueError):  # a circular or exotic value
+        return str(value)
+
+
 def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
     """A GitHub-flavoured Markdown table, numbers right-aligned (line breaks in header
-    cells become spaces, pipes in cells are escaped)."""
-    def cell(c: str) -> str:
-        return c.replace("\n", " ").replace("|", "\\|")
+    cells become spaces, pipes in cells are escaped; a cell that is not text is shown as
+    :func:`cell_text`)."""
+    def cell(c: Any) -> str:
+        return cell_text(c).replace("\n", " ").replace("|", "\\|")
 
     align = ["---"] + ["---:"] * (len(header) - 1)
     lines = ["| " + " | ".join(map(cell, header)) + " |", "|" + "|".join(align) + "|"]
@@ -283,7 +297,7 @@ def plain_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
     depth = max(len(h) for h in split)
     head = [[""] * (depth - len(h)) + h for h in split]  # bottom-aligned
     head_rows = [[h[i] for h in head] for i in range(depth)]
-    body = [list(r) for r in rows]
+    body = [[cell_text(c) for c in r] for r in rows]
     widths = [max(len(r[i]) for r in head_rows + body) for i in range(len(header))]
 
     def line(r: list[str]) -> str:
@@ -299,7 +313,8 @@ def html_table(header: Sequence[str], rows: Iterable[Sequence[str]], cls: str | 
     """An HTML table, cells escaped (``cls``: its CSS class)."""
     e = html.escape
     head = "".join(f"<th>{e(h.replace(chr(10), ' '))}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>\n" for r in rows)
+    body = "".join("<tr>" + "".join(f"<td>{e(cell_text(c))}</td>" for c in r) + "</tr>\n"
+                   for r in rows)
     attr = f' class="{e(cls)}"' if cls else ""
     return f"<table{attr}>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}</tbody>\n</table>"
 
@@ -310,11 +325,19 @@ def html_text(text: str) -> str:
     return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
 
 
+def table_at(table: Any, *path: str) -> dict[str, Any]:
+    """The table at ``path`` inside ``table`` (``{}`` if a step is missing or not a
+    table): reading a free-form table such as ``summary["paper"]`` whatever it holds."""
+    for key in path:
+        table = table.get(key) if isinstance(table, dict) else None
+    return table if isinstance(table, dict) else {}
+
+
 def paper_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     """Header and rows of the "paper vs ours" error-range table (empty if none quoted)."""
-    quoted = {n: (f.get("pos_err_range_m") or {})
-              for n, f in ((summary.get("paper") or {}).get("filters") or {}).items()
-              if isinstance(f, dict) and f.get("pos_err_range_m")}
+    quoted = {n: table_at(f, "pos_err_range_m")
+              for n, f in table_at(summary, "paper", "filters").items()
+              if table_at(f, "pos_err_range_m")}
     axes = [a for a in PAPER_AXES if any(a in r for r in quoted.values())]
     header = ["filter"]
     for a in axes:
@@ -332,6 +355,7 @@ def paper_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
 
 def paper_range(summary: dict[str, Any], name: str, axis: str) -> list[float] | None:
     """The paper's quoted error range of filter ``name`` on ``axis`` (m), if any."""
-    f = ((summary.get("paper") or {}).get("filters") or {}).get(name) or {}
-    r = (f.get("pos_err_range_m") or {}).get(axis)
-    return list(r) if isinstance(r, list | tuple) and len(r) == 2 else None
+    r = table_at(summary, "paper", "filters", name, "pos_err_range_m").get(axis)
+    ok = (isinstance(r, list | tuple) and len(r) == 2
+          and all(isinstance(v, int | float) and not isinstance(v, bool) for v in r))
+    return list(r) if ok else None

@@ -37,6 +37,7 @@ from slam.render.document import KindReport, Section
 from slam.render.tables import anees_cell, num, plain_table
 from slam.results import RunOutcome
 from slam.scoring import anees_band
+from worlds import WorldError, limits
 from worlds import schema as ws
 
 NAME = "cv-tracker-1d"
@@ -98,6 +99,15 @@ def parse(data: dict[str, Any], name: str, source: str, base: Any) -> TrackerWor
         initial_sigma_pos_m=v["initial"]["sigma_pos_m"],
         initial_sigma_vel_mps=v["initial"]["sigma_vel_mps"],
         filters=TrackerFilters(v["filters"]["names"], v["filters"]["process_noise_scale"]))
+
+
+def work(w: TrackerWorld):
+    """One run: ``steps`` samples and filter epochs of a 2-state filter (2 noise inputs)."""
+    yield limits.Size("samples", "steps", w.steps, "steps")
+    yield limits.Size("epochs", "filter epochs", w.steps + 1, "steps")
+    yield limits.Size("state", "state dimensions", DOF, None)
+    yield limits.Size("work", "units of filter work",
+                      limits.filter_work(w.steps + 1, w.steps, DOF, DOF), "steps")
 
 
 # --------------------------------------------------------------------------- model, simulator
@@ -194,7 +204,7 @@ def sections(summary: dict[str, Any]) -> list[Section]:
 
 REPORT = KindReport(what="1-D constant-velocity tracking", sections=sections,
                     figures=lambda: {}, text_table=lambda s: plain_table(HEADER, rows(s)))
-TRACKER = Kind(NAME, parse, run_once, summarize, REPORT)
+TRACKER = Kind(NAME, parse, run_once, summarize, REPORT, work=work)
 
 WORLD_TOML = """\
 kind = "cv-tracker-1d"
@@ -287,6 +297,28 @@ def test_malformed_world_of_the_plugin_kind_exits_2_naming_the_key(tracker_kind,
     assert res.exit_code == 2, res.output
     assert f"{world_file}: [sensor] sigma_pos_m = -1.0: must be in (0, 1000]" in res.output
     assert not out.exists()
+
+
+def test_a_kind_must_declare_its_work_and_the_registry_checks_it(tracker_kind, monkeypatch):
+    """A kind without ``work`` cannot be made or registered; a world of the plug-in kind
+    over a limit is refused by the registry (the kind's own parse checks no size)."""
+    with pytest.raises(TypeError, match="work"):
+        Kind(NAME, parse, run_once, summarize, REPORT)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="declares no work"):
+        register(Kind(NAME, parse, run_once, summarize, REPORT, work=None))  # type: ignore
+    assert KINDS[NAME] is TRACKER
+    big = WORLD_TOML.replace("steps = 80", "steps = 60000")
+    with pytest.raises(WorldError) as err:
+        world_from_dict(tomllib.loads(big), name="big", source="big.toml")
+    assert str(err.value) == ("big.toml: steps = 60000: the run would need 60,001 filter "
+                              "epochs; at most 50,000 are allowed")
+    # a work that leaves out a required size is the kind's bug, not the world's
+    def partial(w):
+        yield limits.Size("samples", "steps", w.steps, "steps")
+    monkeypatch.setitem(KINDS, NAME, Kind(NAME, parse, run_once, summarize, REPORT,
+                                          work=partial))
+    with pytest.raises(TypeError, match="states no epochs, state, work"):
+        world_from_dict(tomllib.loads(WORLD_TOML), name="line")
 
 
 def test_the_chi_square_check_fails_for_an_overconfident_filter(tracker_kind):

@@ -4,9 +4,14 @@ that are not regular files, huge integers - each a :class:`WorldError` naming th
 
 from __future__ import annotations
 
-import pytest
+import tomllib
+from importlib.resources import files
 
-from slam.registry import load_world, world_from_dict
+import pytest
+from click.testing import CliRunner
+
+import slam.cli
+from slam.registry import KINDS, load_world, world_from_dict
 from tests.small_worlds import overridden, small_drone_doc, star_sensor_doc
 from worlds import WorldError, limits
 from worlds.loader import parse_toml
@@ -20,6 +25,12 @@ PLANAR = {
 
 
 SPEED = "[vehicle] speed_mps"
+
+
+def bundled(name: str, **dotted) -> dict:
+    """The bundled world ``name`` as a document with dotted-key overrides."""
+    doc = tomllib.loads((files("worlds") / f"{name}.toml").read_text(encoding="utf-8"))
+    return overridden(doc, dotted)
 
 
 def _with(doc: dict, **dotted) -> dict:
@@ -40,6 +51,8 @@ def _with(doc: dict, **dotted) -> dict:
      "[terrain] grid_spacing_m", "terrain grid vertices"),
     (star_sensor_doc(**{"star_sensor.rate_hz": 10.0, "gyro.rate_hz": 10_000.0,
                         "duration_s": 86_400.0}), "[gyro] rate_hz", "gyro samples"),
+    (bundled("fixed-wing", **{"duration_s": 7200.0, "imu.rate_hz": 1000.0}), "[imu] rate_hz",
+     "IMU samples"),
 ])
 def test_derived_sizes_over_their_limits_are_refused(doc, key, size):
     with pytest.raises(WorldError, match="at most") as err:
@@ -47,9 +60,91 @@ def test_derived_sizes_over_their_limits_are_refused(doc, key, size):
     assert key in str(err.value) and size in str(err.value)
 
 
+# The kinds that had no size check on ed14704 (issue 24): each world below allocated
+# gigabytes or ran for hours before failing; now the registry refuses it on load with the
+# key, the world's figure and the limit.
+@pytest.mark.parametrize(("doc", "message"), [
+    (bundled("ship", **{"duration_s": 86_400.0, "gyro.rate_hz": 10_000.0}),
+     "[gyro] rate_hz = 10000.0: the run would need 8.6e+08 gyro samples (duration_s = 86400 "
+     "at 10000 Hz); at most 250,000 are allowed"),
+    (bundled("alignment", **{"duration_s": 3600.0, "imu.rate_hz": 10_000.0}),
+     "[imu] rate_hz = 10000.0: the run would need 3.6e+07 IMU samples (duration_s = 3600 at "
+     "10000 Hz); at most 250,000 are allowed"),
+    (bundled("alignment", **{"duration_s": 2000.0, "imu.rate_hz": 100.0,
+                             "filters.rate_hz": 100.0}),
+     "[filters] rate_hz = 100.0: the run would need 200,001 filter epochs (duration_s = 2000 "
+     "at 100 Hz); at most 50,000 are allowed"),
+    (bundled("spinning", sample_interval_s=0.001),
+     "sample_interval_s = 0.001: the run would need 1,000,001 gyro and magnetometer samples "
+     "(a flight of up to 1000 s with the calibrated drag, at sample_interval_s = 0.001); at "
+     "most 250,000 are allowed"),
+])
+def test_alignment_ship_and_spinning_sizes_are_bounded_on_load(doc, message):
+    with pytest.raises(WorldError) as err:
+        world_from_dict(doc, source="w.toml")
+    assert str(err.value) == f"w.toml: {message}"
+
+
+def test_a_spinning_flight_bound_follows_the_launch():
+    """With a stated drag the flight-time bound is the launch's, far below the integrator's
+    horizon: a 1 ms sampling of a short, slow flight is allowed, of a long one refused."""
+    from slam.kinds.spinning.world import flight_time_bound
+
+    slow = bundled("spinning", sample_interval_s=0.001,
+                   launch={"speed_mps": 100.0, "pitch_deg": 45.0, "yaw_deg": 0.0,
+                           "roll_deg": 0.0}, **{"flight.drag_k_per_m": 1e-4})
+    w = world_from_dict(slow)
+    assert 14.4 < flight_time_bound(w.flight) < 60.0  # vacuum: 2 v sin(45°) / g = 14.4 s
+    no_drag = bundled("spinning", **{"flight.drag_k_per_m": 0.0})
+    assert flight_time_bound(world_from_dict(no_drag).flight) == pytest.approx(
+        2 * 897.0 * 0.5**0.5 / 9.80665)
+    with pytest.raises(WorldError, match="sample_interval_s = 0.001: .*up to 129.4 s"):
+        world_from_dict({**no_drag, "sample_interval_s": 0.001})
+
+
 def test_the_bundled_worlds_are_well_within_the_limits():
-    for name in ("bailey", "densemap", "webmap", "drone", "drone-hills", "star-sensor"):
+    for name in ("bailey", "densemap", "webmap", "drone", "drone-hills", "star-sensor",
+                 "ship", "alignment", "spinning", "fixed-wing"):
         load_world(name)
+
+
+def test_every_registered_kind_declares_its_work():
+    for kind in KINDS.values():
+        assert callable(kind.work), kind.name
+
+
+def test_a_mode_given_on_the_command_line_is_checked_too(tmp_path):
+    """Local mode keeps the filter work of 600 mapped landmarks small; ``--mode joint``
+    multiplies it past the limit and is refused before anything runs."""
+    lms = [[float(x), float(y)] for x in range(0, 30, 1) for y in (-2.0, 2.0)] * 10
+    doc = _with(PLANAR, map__landmarks=[[x + 0.01 * i, y] for i, (x, y) in enumerate(lms)],
+                filters__mode="local")
+    world_from_dict(doc)
+    path = tmp_path / "w.toml"
+    path.write_text(_toml(doc), encoding="utf-8")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(slam.cli.main, ["run", str(path), "--mode", "joint", "--out",
+                                             str(out)])
+    assert res.exit_code == 2, res.output
+    assert res.output.startswith(f"error: --mode joint: {path}: [filters] mode: the run would "
+                                 "need ")
+    assert "units of filter work" in res.output and "joint mode); at most 2e+11" in res.output
+    assert not out.exists()
+
+
+def _toml(doc: dict) -> str:
+    """A small document of tables, lists and scalars as TOML text."""
+    import json
+
+    def value(v):
+        return json.dumps(v)
+
+    lines = [f"{k} = {value(v)}" for k, v in doc.items() if not isinstance(v, dict)]
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            lines.append(f"[{k}]")
+            lines += [f"{kk} = {value(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"
 
 
 def test_a_drone_altitude_smoothing_shorter_than_an_imu_period_is_refused():
@@ -64,7 +159,8 @@ def test_a_drone_altitude_smoothing_shorter_than_an_imu_period_is_refused():
     "x = " + "1" * 5000,
 ])
 def test_deep_nesting_and_huge_integers_are_toml_errors(text):
-    with pytest.raises(WorldError, match=r"w\.toml: invalid TOML|nested deeper"):
+    with pytest.raises(WorldError, match=r"w\.toml(:1)?: (invalid TOML|.*nested deeper|a "
+                                         r"dotted key or table header of 5,000 parts)"):
         parse_toml(text.encode(), "w.toml")
     deep: list = [0]
     for _ in range(40):

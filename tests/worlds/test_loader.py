@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import worlds
+import worlds.loader
 from slam.registry import load_world
 from worlds import WorldError, bundled_names, read_world
 
@@ -88,3 +89,33 @@ def test_a_numpy_value_is_shown_as_toml_in_an_error():
     assert format_value(np.float64(5.0)) == "5.0"
     assert format_value(np.array([1.5, 2.0])) == "[1.5, 2.0]"
     assert format_value(np.bool_(True)) == "true" and format_value(np.int64(3)) == "3"
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (HEAD + ".".join(["a"] * 2000) + " = 1\n", 4),  # a dotted key
+    (HEAD + "[" + ".".join(["t"] * 40) + "]\nx = 1\n", 4),  # a table header
+    (HEAD + '"""\nthree\nlines\n"""\n[[' + ".".join(['"q"'] * 33) + "]]\n", 8),  # quoted parts
+    (HEAD + "x = {" + " . ".join(["b"] * 100) + " = 2}\n", 4),  # in an inline table
+])
+def test_a_long_dotted_key_is_refused_before_parsing(tmp_path: Path, text: str, line: int):
+    """tomllib's memory grows with the square of a dotted key's parts (30 000 parts: 4 GB):
+    the key is refused before parsing, naming the file and line (issue 24)."""
+    path = write(tmp_path, text)
+    with pytest.raises(WorldError) as info:
+        read_world(path)
+    assert info.value.line == line, str(info.value)
+    assert str(info.value).startswith(f"{path}:{line}: a dotted key or table header of ")
+    assert "parts; at most 32 are allowed" in str(info.value)
+
+
+def test_dots_in_strings_and_comments_and_short_keys_are_not_key_parts(tmp_path: Path):
+    dots = "." * 200
+    text = (HEAD.replace('"tiny"', f'"{dots}"') + f"# {dots}\n"
+            + "[" + ".".join(["t"] * 20) + "]\n" + f"s = '{dots}'\nf = [1.5, 2.5]\n"
+            + f'm = """\n{dots}\n"""\n')
+    doc = read_world(write(tmp_path, text))
+    assert doc.data["description"] == dots
+    # the bundled worlds' keys have at most 3 parts, far below the limit
+    for name in bundled_names():
+        raw = (Path(worlds.__file__).parent / f"{name}.toml").read_text(encoding="utf-8")
+        worlds.loader.check_key_parts(raw, name)

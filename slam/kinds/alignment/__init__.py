@@ -4,8 +4,8 @@ GTSAM CombinedImuFactor smoother ([Wu-Wang 2014])."""
 
 from slam.kind import Deferred, Kind
 from slam.kinds.alignment.world import KIND as NAME
-from slam.kinds.alignment.world import NAMES, parse
+from slam.kinds.alignment.world import NAMES, parse, work
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"),
-            filters=NAMES)
+            filters=NAMES, work=work)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -36,6 +37,7 @@ import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
 from nav.strapdown import G0
+from worlds import limits
 from worlds.units import DEG
 
 KIND = "alignment"
@@ -148,6 +150,11 @@ SMALL = ws.Interval(0.0, 45.0)
 FREQ = ws.positive(100.0)
 WIND = ws.Interval(0.0, 50.0)
 
+PAPER = {"claims.ukf.east": ws.TEXT,
+         **{f"claims.uthinf.{k}": ws.REAL
+            for k in ("east_final_arcmin", "north_final_arcmin", "settle_within_s")}}
+"""The ``[paper]`` keys the report reads (the UT-H∞ and UKF claims)."""
+
 WORLD = wc.world(KIND, AlignmentWorld, {
     "duration_s": ws.Number(ws.positive(3600.0)),
     "site": ws.site(85.0, ws.Interval(-500.0, 9000.0), 0.0),
@@ -184,21 +191,21 @@ WORLD = wc.world(KIND, AlignmentWorld, {
         "names": ws.StringList(NAMES),
         "rate_hz": ws.Number(ws.Interval(0.1, 1000.0)),
         "gamma": ws.Number(ws.Interval(1e-3, math.inf), default=5.0),
-        "velocity_sigma_mps": ws.Number(ws.positive(10.0)),
+        "velocity_sigma_mps": ws.Sigma(ws.positive(10.0)),
         "initial_misalignment_deg": ws.Vector(3, ws.Interval(-60.0, 60.0), scale=DEG)
         .to("initial_misalignment_rad"),
         "initial_sigma_deg": wc.attitude_sigma("initial_sigma_rad", 60.0),
     }, into=AlignFilterSpec),
     "reference": ws.Section({
         "key_interval_s": ws.Number(ws.positive(100.0), default=1.0),
-        "position_sigma_m": ws.Number(ws.positive(100.0), default=0.01),
+        "position_sigma_m": ws.Sigma(ws.positive(100.0), default=0.01),
         "runs": ws.Integer(ws.Interval(0, 100_000), default=100_000),
     }, into=ReferenceSpec),
     "scoring": ws.Section({
         "settle_factor": ws.Number(ws.Interval(1.0, 10.0), default=1.2),
         "divergence_deg": wc.divergence(20.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
@@ -213,6 +220,19 @@ RULES = (
 )
 """Checks across keys, in the order they are made; the smoother's keys fall on filter
 epochs and divide the run (the last two)."""
+
+
+STATE_DIM = 13
+"""The AQE filter state (:data:`slam.kinds.alignment.models.N_STATE`); its process noise
+is additive over the whole state."""
+
+
+def work(w: AlignmentWorld) -> Iterator[limits.Size]:
+    """IMU samples, filter epochs, state and filter work of a run (:mod:`worlds.limits`);
+    the GTSAM smoother preintegrates the same samples between keys on filter epochs."""
+    return wc.rate_work(w.duration_s, ("imu.rate_hz", "IMU samples", w.imu.rate_hz),
+                        ("filters.rate_hz", "filter epochs", w.filters.rate_hz),
+                        STATE_DIM, STATE_DIM)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None

@@ -28,6 +28,7 @@ see :mod:`slam.kinds.attitude.simulate` for the motion.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -166,6 +167,11 @@ class AttitudeWorld(wc.WorldBase):
     n_star = wc.epoch_count("star", "star epochs, the first at t = 0")
 
 
+PAPER = {"statement": ws.TEXT, "large_error.statement": ws.TEXT,
+         **{f"filters.*.{k}": ws.REAL
+            for k in ("roll_arcsec", "pitch_arcsec", "yaw_arcsec", "time_per_iteration_s")}}
+"""The ``[paper]`` keys the report reads (Table 2 per filter, the statements)."""
+
 WORLD = wc.world(KIND, AttitudeWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "satellite": ws.Section(
@@ -192,7 +198,7 @@ WORLD = wc.world(KIND, AttitudeWorld, {
     "star_sensor": ws.Section(
         {
             "rate_hz": ws.Number(ws.positive(1_000.0)),
-            "sigma_arcsec": ws.Number(ws.Interval(0.0, 36_000.0), scale=ARCSEC).to("sigma_rad"),
+            "sigma_arcsec": ws.Sigma(ws.Interval(0.0, 36_000.0), scale=ARCSEC).to("sigma_rad"),
             "mode": ws.String(choices=STAR_MODES, default="quaternion"),
             "n_stars": ws.Integer(ws.Interval(2, len(DEFAULT_STAR_DIRECTIONS)), default=2),
             "directions": Directions(default=None),
@@ -204,14 +210,14 @@ WORLD = wc.world(KIND, AttitudeWorld, {
             "names": ws.StringList(FILTER_NAMES),
             "initial_error_deg": ws.Vector(3, ws.Interval(-90.0, 90.0), scale=DEG)
             .to("initial_error_rad"),
-            "initial_attitude_var_deg2": ws.Number(ws.positive(1e4), scale=DEG**2)
+            "initial_attitude_var_deg2": ws.Sigma(ws.positive(1e4), scale=DEG**2, power=1)
             .to("initial_attitude_var_rad2"),
-            "initial_bias_var_deg_h2": ws.Number(ws.positive(1e8), scale=DEG_H**2)
+            "initial_bias_var_deg_h2": ws.Sigma(ws.positive(1e8), scale=DEG_H**2, power=1)
             .to("initial_bias_var_rad2_s2"),
-            "arw_deg_sqrt_h": ws.Number(ws.positive(100.0), scale=DEG_SQRT_H).to("arw_rad_sqrt_s"),
-            "bias_rw_deg_h_sqrt_h": ws.Number(ws.positive(100.0), scale=DEG_H_SQRT_H)
+            "arw_deg_sqrt_h": ws.Sigma(ws.positive(100.0), scale=DEG_SQRT_H).to("arw_rad_sqrt_s"),
+            "bias_rw_deg_h_sqrt_h": ws.Sigma(ws.positive(100.0), scale=DEG_H_SQRT_H)
             .to("bias_rw_rad_s_sqrt_s"),
-            "star_sigma_arcsec": ws.Number(ws.positive(36_000.0), scale=ARCSEC)
+            "star_sigma_arcsec": ws.Sigma(ws.positive(36_000.0), scale=ARCSEC)
             .to("star_sigma_rad"),
         },
         into=AttitudeFilterSpec,
@@ -224,7 +230,7 @@ WORLD = wc.world(KIND, AttitudeWorld, {
         },
         into=ScoringSpec,
     ),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
@@ -250,15 +256,16 @@ def _directions(star: dict[str, Any], at: ws.Where) -> tuple[tuple[float, float,
     return dirs
 
 
-def check_sizes(v: dict[str, Any], root: ws.Where) -> None:
-    """Gyro samples and star epochs of a run against :mod:`worlds.limits`."""
-    duration = v["duration_s"]
-    for key, what, limit in (("gyro.rate_hz", "gyro samples", limits.MAX_SAMPLES),
-                             ("star_sensor.rate_hz", "star epochs", limits.MAX_EPOCHS)):
-        rate = ws.value_at(v, key)
-        why = f"duration_s = {duration:g} at {rate:g} Hz"
-        if msg := limits.over(what, duration * rate, limit, why):
-            raise root.child(key).error(msg, rate)
+STATE_DIM, NOISE_DIM = 7, 6
+"""The filters' state ``[q_nb, b]`` (ambient 7, :mod:`slam.kinds.attitude.run`) and its
+process-noise inputs (angle random walk and bias random walk, 3 each)."""
+
+
+def work(w: AttitudeWorld) -> Iterator[limits.Size]:
+    """Gyro samples, star epochs, state and filter work of a run (:mod:`worlds.limits`)."""
+    return wc.rate_work(w.duration_s, ("gyro.rate_hz", "gyro samples", w.gyro.rate_hz),
+                        ("star_sensor.rate_hz", "star epochs", w.star.rate_hz),
+                        STATE_DIM, NOISE_DIM)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -267,7 +274,6 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
     ws.check_rules(RULES, v, root)
-    check_sizes(v, root)
     dirs = _directions(v["star_sensor"], root.child("star_sensor.directions"))
     return ws.build(WORLD, v, name=name, source=source,
                     star=ws.build(SCHEMA["star_sensor"], v["star_sensor"], directions=dirs))

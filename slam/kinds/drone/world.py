@@ -44,6 +44,7 @@ and the white noise are per sample (``σ_rw·√dt`` and ``σ_wn/√dt``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -234,11 +235,11 @@ WORLD = wc.world(KIND, DroneWorld, {
             .to("start_heading_rad"),
             "altitude_smoothing_s": ws.Number(ws.Interval(0.0, 60.0), default=1.0),
             "drag_per_s": ws.Number(ws.Interval(0.0, 10.0), default=0.3),
-            "initial_sigma_pos_m": ws.Number(ws.Interval(0.0, 100.0), default=0.0),
-            "initial_sigma_vel_mps": ws.Number(ws.Interval(0.0, 10.0), default=0.02),
-            "initial_sigma_roll_pitch_deg": ws.Number(ws.Interval(0.0, 30.0), 0.1, DEG)
+            "initial_sigma_pos_m": ws.Sigma(ws.Interval(0.0, 100.0), default=0.0),
+            "initial_sigma_vel_mps": ws.Sigma(ws.Interval(0.0, 10.0), default=0.02),
+            "initial_sigma_roll_pitch_deg": ws.Sigma(ws.Interval(0.0, 30.0), 0.1, DEG)
             .to("initial_sigma_roll_pitch_rad"),
-            "initial_sigma_yaw_deg": ws.Number(ws.Interval(0.0, 180.0), 0.2, DEG)
+            "initial_sigma_yaw_deg": ws.Sigma(ws.Interval(0.0, 180.0), 0.2, DEG)
             .to("initial_sigma_yaw_rad"),
         },
         into=DroneVehicleSpec,
@@ -268,9 +269,9 @@ WORLD = wc.world(KIND, DroneWorld, {
             .to("fov_azimuth_half_rad"),
             "fov_elevation_half_deg": ws.Number(ws.positive(85.0), 60.0, DEG)
             .to("fov_elevation_half_rad"),
-            "sigma_range_m": ws.Number(ws.positive(100.0), default=0.1),
-            "sigma_azimuth_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_azimuth_rad"),
-            "sigma_elevation_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_elevation_rad"),
+            "sigma_range_m": ws.Sigma(ws.positive(100.0), default=0.1),
+            "sigma_azimuth_deg": ws.Sigma(ws.positive(45.0), 1.0, DEG).to("sigma_azimuth_rad"),
+            "sigma_elevation_deg": ws.Sigma(ws.positive(45.0), 1.0, DEG).to("sigma_elevation_rad"),
             "line_of_sight": ws.Boolean(default=True),
             "los_margin_m": ws.Number(ws.Interval(0.0, 100.0), default=0.1),
         },
@@ -279,11 +280,11 @@ WORLD = wc.world(KIND, DroneWorld, {
     ),
     "filters": filters_section(
         MODES, DroneFilterSpec, gate_accept=7.8, gate_new=30.0, names=DRONE_FILTERS,
-        imu_noise_scale=ws.Number(ws.positive(1e6), default=1.0),
-        sensor_noise_scale=ws.Number(ws.positive(1e6), default=1.0),
+        imu_noise_scale=ws.Sigma(ws.positive(1e6), default=1.0, power=1),
+        sensor_noise_scale=ws.Sigma(ws.positive(1e6), default=1.0, power=1),
         divergence_m=ws.Number(ws.positive(1e6), default=25.0),
     ),
-})
+}, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema
 
 RULES = (
@@ -345,42 +346,43 @@ def _samples(length: float, speed: float, rate: float) -> float:
         return math.inf
 
 
-def check_sizes(w: DroneWorld, root: ws.Where) -> None:
-    """The run's derived sizes against :mod:`worlds.limits`: IMU samples, sensor epochs,
-    the gridded terrain, the state if every landmark near the path is mapped, the filter
-    work; and an altitude smoothing of at least one IMU period (or none)."""
-    veh, imu, sen = w.vehicle, w.imu, w.sensor
-    length = limits.path_length(veh.start_xy, w.map.waypoints, veh.loops)
-    samples = _samples(length, veh.speed_mps, imu.rate_hz)
-    why = f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g}, {imu.rate_hz:g} Hz"
-    if msg := limits.over("IMU samples", samples, limits.MAX_SAMPLES, why):
-        raise root.child("vehicle.speed_mps").error(msg, veh.speed_mps)
-    epochs = samples / w.samples_per_epoch + 1
-    if msg := limits.over("sensor epochs", epochs, limits.MAX_EPOCHS):
-        raise root.child("sensor.rate_hz").error(msg, sen.rate_hz)
+def check_smoothing(w: DroneWorld, root: ws.Where) -> None:
+    """An altitude smoothing of at least one IMU period (or none)."""
+    veh, imu = w.vehicle, w.imu
     if 0.0 < veh.altitude_smoothing_s < imu.dt_s:
         raise root.child("vehicle.altitude_smoothing_s").error(
             f"must be 0 (no smoothing) or at least one IMU period ({imu.dt_s:g} s)",
             veh.altitude_smoothing_s)
+
+
+def work(w: DroneWorld) -> Iterator[limits.Size]:
+    """What one run costs (:mod:`worlds.limits`): IMU samples, sensor epochs, the gridded
+    terrain, the state if every landmark near the path is mapped, the filter work - in
+    that order (the landmarks near the path are counted only for an allowed path)."""
+    veh, imu, sen = w.vehicle, w.imu, w.sensor
+    length = limits.path_length(veh.start_xy, w.map.waypoints, veh.loops)
+    samples = _samples(length, veh.speed_mps, imu.rate_hz)
+    yield limits.Size("samples", "IMU samples", samples, "vehicle.speed_mps",
+                      f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g}, "
+                      f"{imu.rate_hz:g} Hz")
+    epochs = samples / w.samples_per_epoch + 1
+    yield limits.Size("epochs", "sensor epochs", epochs, "sensor.rate_hz")
     t, (x0, x1, y0, y1) = w.terrain, w.map.bounds_m
     if t.kind == "hills":
         span = (x1 - x0 + 2 * t.margin_m) * (y1 - y0 + 2 * t.margin_m)
-        vertices = span / t.grid_spacing_m**2
-        if msg := limits.over("terrain grid vertices", vertices, limits.MAX_TERRAIN_VERTICES):
-            raise root.child("terrain.grid_spacing_m").error(msg, t.grid_spacing_m)
+        yield limits.Size("vertices", "terrain grid vertices", span / t.grid_spacing_m**2,
+                          "terrain.grid_spacing_m")
     reach = sen.max_range_m + veh.at_waypoint_m + 2.0 * veh.speed_mps / veh.max_turn_rate_rad_s
     near = limits.near_path(w.map.landmarks, veh.start_xy, w.map.waypoints, reach)
     state = 15 + 3 * near
-    if msg := limits.over("state dimensions", state, limits.MAX_STATE,
-                          f"{near} landmarks within sensor range of the path"):
-        raise root.child("map.landmarks").error(msg)
+    yield limits.Size("state", "state dimensions", state, "map.landmarks",
+                      f"{near} landmarks within sensor range of the path")
     n = w.samples_per_epoch
-    work = epochs * ((state**3 if w.filters.mode == "joint" else 15**3 + 10 * state**2)
+    cost = epochs * ((state**3 if w.filters.mode == "joint" else 15**3 + 10 * state**2)
                      + 40 * state * n)
-    if msg := limits.over("units of filter work", work, limits.MAX_WORK,
-                          f"{limits.count(epochs)} epochs, state {state}, {n} IMU samples "
-                          f"per epoch, {w.filters.mode} mode"):
-        raise root.child("filters.mode").error(msg)
+    yield limits.Size("work", "units of filter work", cost, "filters.mode",
+                      f"{limits.count(epochs)} epochs, state {state}, {n} IMU samples per "
+                      f"epoch, {w.filters.mode} mode")
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -410,5 +412,5 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
         vehicle=ws.build(SCHEMA["vehicle"], v["vehicle"], start_xy=(sx, sy),
                          start_heading_rad=heading),
     )
-    check_sizes(world, root)
+    check_smoothing(world, root)
     return world

@@ -3,9 +3,9 @@ INS/UQ-CKF/UKF (unit-quaternion INS error state, GNSS aiding), SRCKF and EKF bas
 GTSAM CombinedImuFactor smoother ([Fixed-wing EA-UKF])."""
 
 from slam.kind import Deferred, Kind
-from slam.kinds.fixed_wing.world import FILTERS, parse
+from slam.kinds.fixed_wing.world import FILTERS, parse, work
 from slam.kinds.fixed_wing.world import KIND as NAME
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"),
-            filters=FILTERS)
+            filters=FILTERS, work=work)

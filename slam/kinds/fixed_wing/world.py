@@ -31,6 +31,7 @@ Units are spelled in every key and converted to SI radians on load.  File layout
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -181,6 +182,10 @@ class FixedWingWorld(wc.WorldBase):
 
 
 SPEED = ws.Interval(5.0, 100.0)
+PAPER = {f"table1.*.{k}": ws.REAL for k in ("longitude_m", "latitude_m", "east_velocity_mps",
+                                          "north_velocity_mps", "heading_deg")}
+"""The ``[paper]`` keys the report reads (Table 1's mean errors per filter)."""
+
 WORLD = wc.world(KIND, FixedWingWorld, {
     "duration_s": ws.Number(ws.positive(7_200.0)),
     "site": ws.site(80.0, ws.Interval(-400.0, 10_000.0)),
@@ -213,25 +218,25 @@ WORLD = wc.world(KIND, FixedWingWorld, {
         "declination_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
         .to("declination_rad"),
         "inclination_deg": ws.Number(ws.Interval(-85.0, 85.0), scale=DEG).to("inclination_rad"),
-        "sigma_ut": ws.Number(ws.Interval(0.0, 50.0)),
+        "sigma_ut": ws.Sigma(ws.Interval(0.0, 50.0)),
     }, into=MagSpec),
     "gnss": ws.Section({
         "rate_hz": ws.Number(ws.Interval(0.01, 100.0)),
-        "horizontal_sigma_m": ws.Number(ws.positive(1_000.0)),
-        "vertical_sigma_m": ws.Number(ws.positive(1_000.0)),
-        "velocity_sigma_mps": ws.Number(ws.positive(100.0)),
+        "horizontal_sigma_m": ws.Sigma(ws.positive(1_000.0)),
+        "vertical_sigma_m": ws.Sigma(ws.positive(1_000.0)),
+        "velocity_sigma_mps": ws.Sigma(ws.positive(100.0)),
     }, into=GnssSpec),
     "ea": ws.Section({
         "update_rate_hz": ws.Number(ws.Interval(0.1, 1_000.0)),
-        "roll_pitch_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("roll_pitch_sigma_rad"),
-        "heading_sigma_deg": ws.Number(ws.positive(90.0), scale=DEG).to("heading_sigma_rad"),
+        "roll_pitch_sigma_deg": ws.Sigma(ws.positive(90.0), scale=DEG).to("roll_pitch_sigma_rad"),
+        "heading_sigma_deg": ws.Sigma(ws.positive(90.0), scale=DEG).to("heading_sigma_rad"),
         "initial_sigma_deg": wc.attitude_sigma("initial_sigma_rad"),
         "initial_bias_sigma_deg_h": wc.bias_sigma(36_000.0),
     }, into=EaSpec),
     "ins": ws.Section({
         "initial_attitude_sigma_deg": wc.attitude_sigma("initial_attitude_sigma_rad"),
-        "initial_velocity_sigma_mps": ws.Number(ws.positive(100.0)),
-        "initial_position_sigma_m": ws.Number(ws.positive(1_000.0)),
+        "initial_velocity_sigma_mps": ws.Sigma(ws.positive(100.0)),
+        "initial_position_sigma_m": ws.Sigma(ws.positive(1_000.0)),
     }, into=InsSpec),
     "filters": ws.Section({"names": ws.StringList(FILTERS)}, into=FilterSpec),
     "scoring": ws.Section({
@@ -240,7 +245,7 @@ WORLD = wc.world(KIND, FixedWingWorld, {
         "accel_mps2": ws.Number(ws.positive(10.0), default=0.05),
         "divergence_deg": wc.divergence(45.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
@@ -271,11 +276,19 @@ def _check_flight(v: dict[str, Any], root: ws.Where) -> None:
             f"the last manoeuvre must end by duration_s ({v['duration_s']:g} s)", ramp[-1])
 
 
-def _check_size(v: dict[str, Any], root: ws.Where) -> None:
-    n = v["duration_s"] * v["imu"]["rate_hz"]
-    msg = limits.over("IMU samples", n, limits.MAX_SAMPLES)
-    if msg:
-        raise root.child("duration_s").error(msg, v["duration_s"])
+STATE_DIM, NOISE_DIM = 19, 18
+"""The INS/UQ filters' state (ambient 19: position, velocity, quaternion, biases;
+tangent 18, :data:`slam.kinds.fixed_wing.ins.DIM`) and its additive process noise; the
+EA filters' 6-state is smaller."""
+
+
+def work(w: FixedWingWorld) -> Iterator[limits.Size]:
+    """IMU samples, filter epochs (EA updates or GNSS fixes, whichever are more), state
+    and filter work of a run (:mod:`worlds.limits`)."""
+    epochs = max(("ea.update_rate_hz", "EA filter epochs", w.ea.update_rate_hz),
+                 ("gnss.rate_hz", "GNSS epochs", w.gnss.rate_hz), key=lambda e: e[2])
+    return wc.rate_work(w.duration_s, ("imu.rate_hz", "IMU samples", w.imu.rate_hz), epochs,
+                        STATE_DIM, NOISE_DIM)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
@@ -283,7 +296,6 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     """Validate a parsed ``fixed-wing`` TOML document and build its world."""
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
-    _check_size(v, root)
     ws.check_rules(RULES, v, root)
     _check_flight(v, root)
     return ws.build(WORLD, v, name=name, source=source)

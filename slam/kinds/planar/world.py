@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 import operator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -189,8 +190,8 @@ WORLD = wc.world(KIND, World, {
             "loops": ws.Integer(ws.Interval(1, 100), default=2),
             "start_xy_m": ws.Vector(2, COORD).to(None),
             "start_heading_deg": ws.Number(ws.Interval(-360.0, 360.0), None, DEG).to(None),
-            "initial_sigma_xy_m": ws.Number(ws.Interval(0.0, 100.0), 0.0).to(None),
-            "initial_sigma_heading_deg": ws.Number(ws.Interval(0.0, 180.0), 0.0, DEG).to(None),
+            "initial_sigma_xy_m": ws.Sigma(ws.Interval(0.0, 100.0), 0.0).to(None),
+            "initial_sigma_heading_deg": ws.Sigma(ws.Interval(0.0, 180.0), 0.0, DEG).to(None),
         },
         into=VehicleSpec,
     ),
@@ -198,8 +199,8 @@ WORLD = wc.world(KIND, World, {
         {
             "max_range_m": ws.Number(ws.positive(10_000.0), default=30.0),
             "period_steps": ws.Integer(ws.Interval(1, 100_000), default=8),
-            "sigma_range_m": ws.Number(ws.positive(100.0), default=0.1),
-            "sigma_bearing_deg": ws.Number(ws.positive(45.0), 1.0, DEG).to("sigma_bearing_rad"),
+            "sigma_range_m": ws.Sigma(ws.positive(100.0), default=0.1),
+            "sigma_bearing_deg": ws.Sigma(ws.positive(45.0), 1.0, DEG).to("sigma_bearing_rad"),
             "front_half_plane": ws.Boolean(default=True),
         },
         required=False,
@@ -207,15 +208,15 @@ WORLD = wc.world(KIND, World, {
     ),
     "noise": ws.Section(
         {
-            "sigma_speed_mps": ws.Number(ws.positive(10.0), default=0.3),
-            "sigma_steer_deg": ws.Number(ws.positive(45.0), 3.0, DEG).to("sigma_steer_rad"),
+            "sigma_speed_mps": ws.Sigma(ws.positive(10.0), default=0.3),
+            "sigma_steer_deg": ws.Sigma(ws.positive(45.0), 3.0, DEG).to("sigma_steer_rad"),
         },
         required=False,
         into=ControlNoise,
     ),
     "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0,
                                names=PLANAR_FILTERS),
-})
+}, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema
 
 
@@ -347,33 +348,31 @@ def _steps(length: float, speed: float, dt: float) -> float:
         return math.inf
 
 
-def check_sizes(w: World, root: ws.Where) -> None:
-    """The run's derived sizes against :mod:`worlds.limits`: control steps, filter
-    epochs, the state if every landmark near the path is mapped, and the filter work."""
+def work(w: World) -> Iterator[limits.Size]:
+    """What one run costs (:mod:`worlds.limits`): control steps, filter epochs, the state
+    if every landmark near the path is mapped, the filter work - in that order (the
+    landmarks near the path are counted only for a path of allowed length)."""
     veh, sen, lms, wps = w.vehicle, w.sensor, w.map.landmarks, w.map.waypoints
     length = limits.path_length(veh.start[:2], wps, veh.loops)
     steps = _steps(length, veh.speed_mps, veh.dt_s)
-    why = (f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g} with "
-           f"dt_s = {veh.dt_s:g}")
-    if msg := limits.over("control steps", steps, limits.MAX_SAMPLES, why):
-        raise root.child("vehicle.speed_mps").error(msg, veh.speed_mps)
+    yield limits.Size("samples", "control steps", steps, "vehicle.speed_mps",
+                      f"a {length:.4g} m path at speed_mps = {veh.speed_mps:g} with "
+                      f"dt_s = {veh.dt_s:g}")
     epochs = steps / sen.period_steps + 1
-    if msg := limits.over("filter epochs", epochs, limits.MAX_EPOCHS):
-        raise root.child("sensor.period_steps").error(msg, sen.period_steps)
+    yield limits.Size("epochs", "filter epochs", epochs, "sensor.period_steps")
     turn = veh.wheelbase_m / math.tan(veh.max_steer_rad)
     near = limits.near_path(lms, veh.start[:2], wps, sen.max_range_m + veh.at_waypoint_m
                             + 2.0 * turn)
     state = 3 + 2 * near
-    why = f"{near} landmarks within sensor range of the path"
-    if msg := limits.over("state dimensions", state, limits.MAX_STATE, why):
-        raise root.child("map.landmarks").error(msg)
+    yield limits.Size("state", "state dimensions", state, "map.landmarks",
+                      f"{near} landmarks within sensor range of the path")
     width = 2 * sen.period_steps  # the control-noise inputs of one prediction
     joint = w.filters.mode == "joint"
-    work = epochs * ((state + width) ** 3 if joint else (3 + width) ** 3 + 10 * state**2)
-    why = (f"{limits.count(epochs)} epochs, state {state}, {width} noise inputs per "
-           f"prediction, {w.filters.mode} mode")
-    if msg := limits.over("units of filter work", work, limits.MAX_WORK, why):
-        raise root.child("filters.mode" if joint else "sensor.period_steps").error(msg)
+    cost = epochs * ((state + width) ** 3 if joint else (3 + width) ** 3 + 10 * state**2)
+    yield limits.Size("work", "units of filter work", cost,
+                      "filters.mode" if joint else "sensor.period_steps",
+                      f"{limits.count(epochs)} epochs, state {state}, {width} noise inputs "
+                      f"per prediction, {w.filters.mode} mode")
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None) -> World:
@@ -397,5 +396,4 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
         map=MapSpec(m["bounds_m"], points["landmarks"], points["waypoints"]),
         vehicle=ws.build(SCHEMA["vehicle"], veh, start=start, initial_pose_sigma=sigma),
     )
-    check_sizes(world, root)
     return world

@@ -52,7 +52,7 @@ Scoring (:func:`score_filter`)
 from slam.kind import Deferred, Kind
 from slam.kinds.planar.variants import PLANAR_FILTERS, PLANAR_LOCAL_FILTERS
 from slam.kinds.recorded.world import KIND as NAME
-from slam.kinds.recorded.world import MODES, open_log
+from slam.kinds.recorded.world import MODES, open_log, work
 
 
 def _no_world_file(data, name, source, base):
@@ -64,4 +64,5 @@ def _no_world_file(data, name, source, base):
 
 KIND = Kind(NAME, _no_world_file, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"), MODES,
-            {"local": PLANAR_LOCAL_FILTERS}, open_log, filters=PLANAR_FILTERS)
+            {"local": PLANAR_LOCAL_FILTERS}, open_log, filters=PLANAR_FILTERS,
+            work=work)

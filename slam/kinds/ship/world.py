@@ -29,6 +29,7 @@ vector sensors'); see :mod:`slam.kinds.ship.simulate` for the motion and the sen
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -36,6 +37,7 @@ from typing import Any
 import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES
+from worlds import limits
 from worlds.units import DEG, DEG_H, DEG_H_SQRT_H, DEG_SQRT_H
 
 KIND = "ship"
@@ -160,6 +162,10 @@ class ShipWorld(wc.WorldBase):
 ANGLE = ws.Interval(0.0, 45.0)
 PERIOD = ws.Interval(0.5, 600.0)
 
+PAPER = {"note": ws.TEXT, "claims.*.roll_pitch_within_arcmin": ws.REAL,
+         "claims.*.yaw_within_arcmin": ws.REAL, "claims.*.yaw": ws.TEXT}
+"""The ``[paper]`` keys the report reads (each filter's claims)."""
+
 WORLD = wc.world(KIND, ShipWorld, {
     "duration_s": ws.Number(ws.positive(86_400.0)),
     "site": ws.site(89.0, ws.Interval(-100.0, 100.0), 0.0),
@@ -181,12 +187,12 @@ WORLD = wc.world(KIND, ShipWorld, {
     }, into=GyroSpec),
     "vectors": ws.Section({
         "rate_hz": ws.Number(ws.positive(100.0)),
-        "gravity_sigma_mg": ws.Number(ws.positive(500.0), scale=MG).to("gravity_sigma"),
+        "gravity_sigma_mg": ws.Sigma(ws.positive(500.0), scale=MG).to("gravity_sigma"),
         "field_declination_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
         .to("field_declination_rad"),
         "field_inclination_deg": ws.Number(ws.Interval(-85.0, 85.0), scale=DEG)
         .to("field_inclination_rad"),
-        "magnetometer_sigma_percent": ws.Number(ws.positive(50.0), scale=PERCENT)
+        "magnetometer_sigma_percent": ws.Sigma(ws.positive(50.0), scale=PERCENT)
         .to("magnetometer_sigma"),
     }, into=VectorSpec),
     "filters": ws.Section({
@@ -204,7 +210,7 @@ WORLD = wc.world(KIND, ShipWorld, {
         "steady_state_from_s": ws.Number(ws.Interval(0.0, 86_400.0)),
         "divergence_deg": wc.divergence(10.0),
     }, into=ScoringSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
@@ -220,6 +226,18 @@ RULES = (
             "must name only filters listed in {other}"),
 )
 """Checks across keys, in the order they are made."""
+
+
+STATE_DIM, NOISE_DIM = 7, 6
+"""The filters' state ``[q, b]`` (ambient 7, :mod:`slam.kinds.ship.models`) and its
+process-noise inputs (angle random walk and drift random walk, 3 each)."""
+
+
+def work(w: ShipWorld) -> Iterator[limits.Size]:
+    """Gyro samples, vector epochs, state and filter work of a run (:mod:`worlds.limits`)."""
+    return wc.rate_work(w.duration_s, ("gyro.rate_hz", "gyro samples", w.gyro.rate_hz),
+                        ("vectors.rate_hz", "vector-observation epochs", w.vectors.rate_hz),
+                        STATE_DIM, NOISE_DIM)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None

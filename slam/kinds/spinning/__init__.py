@@ -4,8 +4,8 @@ SR-CH∞KF, UT-H∞ and the EKF against a GTSAM smoother ([Spin SR-CH∞KF])."""
 
 from slam.kind import Deferred, Kind
 from slam.kinds.spinning.world import KIND as NAME
-from slam.kinds.spinning.world import NAMES, parse
+from slam.kinds.spinning.world import NAMES, parse, work
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.summary:summarize"), Deferred(f"{__name__}.report:REPORT"),
-            filters=NAMES)
+            filters=NAMES, work=work)

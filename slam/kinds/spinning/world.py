@@ -30,6 +30,7 @@ Units are spelled in every key and converted to SI radians on load.  File layout
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from typing import Any
@@ -38,7 +39,8 @@ import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
 from slam.kinds.spinning.noise import DISTRIBUTIONS, NoiseShape
-from slam.kinds.spinning.truth import Field, FlightSpec
+from slam.kinds.spinning.truth import Field, FlightSpec, G
+from worlds import limits
 
 KIND = "spinning"
 DEG = math.pi / 180.0
@@ -47,7 +49,8 @@ SCALES = ("both", "magnetometer", "gyro")
 
 
 class Gammas(ws.Field):
-    """A non-empty list of H∞ bounds γ (rad): positive numbers, ``inf`` allowed (Kalman)."""
+    """A non-empty list of H∞ bounds γ (rad): positive numbers, ``inf`` allowed (Kalman);
+    γ² must not underflow (the filters use 1/γ², :func:`~worlds.schema.check_variance`)."""
 
     def __init__(self, default: Any = ws.REQUIRED) -> None:
         self.default = default
@@ -59,6 +62,7 @@ class Gammas(ws.Field):
         for i, v in enumerate(value):
             if not (isinstance(v, int | float) and not isinstance(v, bool) and v > 0.0):
                 raise where.item(i).error("must be a positive number or inf", v)
+            ws.check_variance(float(v), 2, ws.positive(math.inf), 1.0, where.item(i), v)
         return tuple(float(v) for v in value)
 
 
@@ -170,6 +174,10 @@ _FLIGHT = {
     "target_range_m": ws.Number(ws.positive(1e6)),
     "target_apex_m": ws.Number(ws.positive(1e6)),
 }
+PAPER = {k: ws.TEXT for k in ("best_pitch", "worst_pitch", "best_yaw", "worst_yaw",
+                           "best_roll_blind", "blind_area")}
+"""The ``[paper]`` keys the report reads (its figures' statements, shown as text)."""
+
 WORLD = wc.world(KIND, SpinningWorld, {
     "sample_interval_s": ws.Number(ws.Interval(0.001, 1.0)),
     "launch": ws.Section(_LAUNCH, attr=None),
@@ -185,15 +193,15 @@ WORLD = wc.world(KIND, SpinningWorld, {
         .to("declination_rad"),
     }, into=Field),
     "gyro": ws.Section({
-        "rate_noise_deg_s_sqrt_hz": ws.Number(ws.positive(100.0), scale=DEG)
+        "rate_noise_deg_s_sqrt_hz": ws.Sigma(ws.positive(100.0), scale=DEG)
         .to("rate_noise_rad_s_sqrt_hz"),
         "roll_range_deg_s": ws.Number(ws.positive(1e6), scale=DEG).to("roll_range_rad_s"),
     }, into=GyroSpec),
-    "magnetometer": ws.Section({"noise_nt": ws.Number(ws.positive(1e5))},
+    "magnetometer": ws.Section({"noise_nt": ws.Sigma(ws.positive(1e5))},
                                into=MagnetometerSpec),
     "truth_noise": ws.Section({
-        "magnetometer_factor": ws.Number(ws.Interval(0.0, 100.0), default=1.0),
-        "gyro_factor": ws.Number(ws.Interval(0.0, 100.0), default=1.0),
+        "magnetometer_factor": ws.Sigma(ws.Interval(0.0, 100.0), default=1.0),
+        "gyro_factor": ws.Sigma(ws.Interval(0.0, 100.0), default=1.0),
         "distribution": ws.String(choices=DISTRIBUTIONS, default="gaussian"),
         "student_t_dof": ws.Number(ws.Interval(2.0, 1000.0, lo_open=True), default=3.0),
         "contamination_fraction": ws.Number(ws.Interval(0.0, 0.5), default=0.05),
@@ -201,9 +209,9 @@ WORLD = wc.world(KIND, SpinningWorld, {
     }, into=NoiseShape),
     "filters": ws.Section({
         "names": ws.StringList(NAMES),
-        "gamma_rad": ws.Number(ws.positive(1e9), default=5.0),
+        "gamma_rad": ws.Sigma(ws.positive(1e9), default=5.0),
         "on_failure": ws.String(choices=("kalman", "raise"), default="kalman"),
-        "initial_sigma_deg": ws.Vector(2, ws.Interval(0.0, 30.0, lo_open=True), scale=DEG)
+        "initial_sigma_deg": ws.SigmaVector(2, ws.Interval(0.0, 30.0, lo_open=True), scale=DEG)
         .to("initial_sigma_rad"),
     }, into=SpinningFilterSpec),
     "scoring": ws.Section({
@@ -219,13 +227,61 @@ WORLD = wc.world(KIND, SpinningWorld, {
         "filters": ws.StringList(NAMES, default=list(NAMES)),
         "scale": ws.String(choices=SCALES, default="both"),
     }, required=False, into=SweepSpec),
-})
+}, paper=PAPER)
 SCHEMA = WORLD.schema
 
 
 def _flight(launch: dict[str, Any], flight: dict[str, Any]) -> FlightSpec:
     return FlightSpec(speed_mps=launch["speed_mps"], pitch_rad=launch["pitch_deg"],
                       yaw_rad=launch["yaw_deg"], **flight)
+
+
+MAX_FLIGHT_S = 1000.0
+"""The flight integrator's horizon (:func:`slam.kinds.spinning.truth.fly`): a flight that
+has not landed by then is refused, so no run samples more than this."""
+MAX_DRAG = _FLIGHT["drag_k_per_m"].interval.hi
+"""The largest drag constant a world may give; it bounds the calibrated one too."""
+
+
+def flight_time_bound(f: FlightSpec) -> float:
+    r"""An upper bound of the flight time (s), from the launch alone (no integration).
+
+    With no drag the flight lasts :math:`T = 2 v_U / g` (:math:`v_U = v \sin` pitch).  With
+    drag :math:`k > 0` (the calibrated one is at most :data:`MAX_DRAG`, and the bound
+    grows with :math:`k`): the climb only loses speed faster than in vacuum, so it lasts
+    at most :math:`v_U/g` and reaches at most :math:`h = v_U^2/2g`.  The horizontal speed
+    relative to the wind only decays, so :math:`|v_{rel}| \le R_0 + s` with :math:`R_0`
+    its value at launch and :math:`s` the sink rate; with the air density at most 1 the
+    fall obeys :math:`\dot s \ge g - k (R_0 + s) s`, so :math:`\dot s \ge g/2` until
+    :math:`s` reaches half of :math:`s^* = (\sqrt{R_0^2 + 4g/k} - R_0)/2` and :math:`s \ge
+    s^*/2` after: the fall lasts at most :math:`\sqrt{4h/g} + 2h/s^*`.
+    """
+    vu = f.speed_mps * math.sin(f.pitch_rad)
+    k = MAX_DRAG if f.drag_k_per_m is None else f.drag_k_per_m
+    if k == 0.0:
+        return 2.0 * vu / G
+    h = vu * vu / (2.0 * G)
+    r0 = math.hypot(f.speed_mps * math.cos(f.pitch_rad) * math.cos(f.yaw_rad),
+                    -f.speed_mps * math.cos(f.pitch_rad) * math.sin(f.yaw_rad) - f.crosswind_mps)
+    sink = (math.sqrt(r0 * r0 + 4.0 * G / k) - r0) / 2.0
+    return vu / G + math.sqrt(4.0 * h / G) + 2.0 * h / sink
+
+
+def work(w: SpinningWorld) -> Iterator[limits.Size]:
+    """Samples (each a filter epoch), state and filter work of a run (:mod:`worlds.limits`),
+    for the longest flight the launch allows (:func:`flight_time_bound`, at most
+    :data:`MAX_FLIGHT_S`)."""
+    bound = min(MAX_FLIGHT_S, flight_time_bound(w.flight))
+    dt = w.sample_interval_s
+    n = bound / dt + 1
+    drag = ("the calibrated drag" if w.flight.drag_k_per_m is None
+            else f"drag_k_per_m = {w.flight.drag_k_per_m:g}")
+    why = f"a flight of up to {bound:.4g} s with {drag}, at sample_interval_s = {dt:g}"
+    yield limits.Size("samples", "gyro and magnetometer samples", n, "sample_interval_s", why)
+    yield limits.Size("epochs", "filter epochs", n, "sample_interval_s", why)
+    yield limits.Size("state", "state dimensions", 2, None)
+    yield limits.Size("work", "units of filter work", limits.filter_work(n, 0, 2, 2),
+                      "sample_interval_s", why)
 
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
