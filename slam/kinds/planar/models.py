@@ -22,6 +22,8 @@ Inverse observation (augmentation): :math:`m = p + r[\cos(φ + b), \sin(φ + b)]
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from estimators import Measurement, Noise, Transition, Wrapped, wrap_angle
@@ -188,12 +190,26 @@ def _range_bearing_jacobian_batch(x: Array, slots: Array) -> Array:
     return H.reshape(lead + (2 * k, n))
 
 
+def stacked_noise(k: int, obs_cov: Array) -> Noise:
+    """The noise of ``k`` independent observations of covariance ``obs_cov`` (a value:
+    built once per ``k`` and covariance, as every epoch with ``k`` sightings needs it)."""
+    cov = np.asarray(obs_cov, dtype=float)
+    return _stacked_noise(k, cov.shape[0], cov.tobytes())
+
+
+@lru_cache(maxsize=256)
+def _stacked_noise(k: int, d: int, cov: bytes) -> Noise:
+    noise = Noise.from_cov(np.kron(np.eye(k), np.frombuffer(cov).reshape(d, d)))
+    for a in (noise.cov, noise.sqrt):  # shared by every caller: read-only
+        a.setflags(write=False)
+    return noise
+
+
 def observation_model(slots: Array, obs_cov: Array) -> Measurement:
     """Batch measurement of the landmarks in ``slots`` (one ``[r, b]`` pair each)."""
     slots = np.asarray(slots, dtype=int)
     k = len(slots)
-    cov = np.kron(np.eye(k), obs_cov)
-    return Measurement(lambda X: range_bearing(X, slots), Noise.from_cov(cov),
+    return Measurement(lambda X: range_bearing(X, slots), stacked_noise(k, obs_cov),
                        space=observation_space(k),
                        jacobian=lambda x: range_bearing_jacobian(x, slots))
 
@@ -240,7 +256,7 @@ def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transi
             Gm[row:row + 2, 2 * i:2 * i + 2] = [[c, -r * s], [s, r * c]]
         return F, Gm
 
-    return Transition(f, Noise.from_cov(np.kron(np.eye(k), obs_cov)), additive=False,
+    return Transition(f, stacked_noise(k, obs_cov), additive=False,
                       space=state_space(n_landmarks + k), jacobian=jacobian)
 
 
