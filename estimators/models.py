@@ -43,22 +43,20 @@ _FACTOR_RTOL = 1e-6
 
 def _as_matrix(a: Any, what: str) -> Array:
     m = np.atleast_2d(np.asarray(a, dtype=float))
-    if m.ndim != 2:
-        raise NoiseError(f"noise {what} must be a matrix, got shape {m.shape}")
     if not np.isfinite(m).all():
         raise NoiseError(f"noise {what} is not finite")
     return m
 
 
 def _check_symmetric(cov: Array) -> None:
-    if cov.shape[0] != cov.shape[1]:
+    if cov.shape[-2] != cov.shape[-1]:
         raise NoiseError(f"noise covariance must be square, got shape {cov.shape}")
     scale = float(np.max(np.abs(cov), initial=0.0))
-    if np.max(np.abs(cov - cov.T), initial=0.0) > _SYM_RTOL * scale:
+    if np.max(np.abs(cov - np.swapaxes(cov, -1, -2)), initial=0.0) > _SYM_RTOL * scale:
         raise NoiseError("noise covariance is not symmetric")
-    if (np.diagonal(cov) < 0.0).any():
-        raise NoiseError(f"noise covariance has a negative variance "
-                         f"({float(np.diagonal(cov).min()):.3e})")
+    diag = np.diagonal(cov, axis1=-2, axis2=-1)
+    if (diag < 0.0).any():
+        raise NoiseError(f"noise covariance has a negative variance ({float(diag.min()):.3e})")
 
 
 def _psd_sqrt(cov: Array) -> Array:
@@ -69,11 +67,11 @@ def _psd_sqrt(cov: Array) -> Array:
     except np.linalg.LinAlgError:
         pass
     lam, U = np.linalg.eigh(cov)
-    top = float(np.max(np.abs(lam), initial=0.0))
-    if lam.min(initial=0.0) < -cov.shape[0] * np.finfo(float).eps * top:
+    top = np.max(np.abs(lam), axis=-1, initial=0.0)
+    if np.any(lam.min(axis=-1, initial=0.0) < -cov.shape[-1] * np.finfo(float).eps * top):
         raise NoiseError(f"noise covariance is not positive semi-definite "
                          f"(eigenvalue {lam.min():.3e})") from None
-    return U * np.sqrt(np.clip(lam, 0.0, None))
+    return U * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
 
 
 @dataclass(frozen=True)
@@ -85,6 +83,8 @@ class Noise:
     Every constructor checks its input - finite, square, symmetric, positive
     semi-definite, ``cov`` equal to ``sqrt @ sqrt.T`` to a relative 1e-6 - and raises
     :class:`NoiseError` naming the fault; a filter never sees a NaN or infinite noise.
+    A batch of noises (one per run of a batch, :mod:`estimators.batch`) has leading axes:
+    ``cov`` (..., d, d), ``sqrt`` (..., d, k).
     """
 
     cov: Array
@@ -93,10 +93,10 @@ class Noise:
     def __post_init__(self) -> None:
         cov, sqrt = _as_matrix(self.cov, "covariance"), _as_matrix(self.sqrt, "factor")
         _check_symmetric(cov)
-        if sqrt.shape[0] != cov.shape[0]:
-            raise NoiseError(f"noise factor has {sqrt.shape[0]} rows for a "
-                             f"{cov.shape[0]}-dimensional covariance")
-        implied = sqrt @ sqrt.T
+        if sqrt.shape[-2] != cov.shape[-1]:
+            raise NoiseError(f"noise factor has {sqrt.shape[-2]} rows for a "
+                             f"{cov.shape[-1]}-dimensional covariance")
+        implied = sqrt @ np.swapaxes(sqrt, -1, -2)
         scale = max(float(np.max(np.abs(cov), initial=0.0)),
                     float(np.max(np.abs(implied), initial=0.0)))
         if np.max(np.abs(implied - cov), initial=0.0) > _FACTOR_RTOL * scale:
@@ -117,8 +117,6 @@ class Noise:
         """Independent components with standard deviations ``sigmas`` (finite, >= 0, and
         each σ² a normal float: a σ > 0 whose square underflows is refused)."""
         s = np.atleast_1d(np.asarray(sigmas, dtype=float))
-        if s.ndim != 1:
-            raise NoiseError(f"noise sigmas must be a vector, got shape {s.shape}")
         if not np.isfinite(s).all():
             raise NoiseError("noise sigma is not finite")
         if (s < 0.0).any():
@@ -131,21 +129,24 @@ class Noise:
         if tiny.any():
             raise NoiseError(f"noise sigma {float(s[tiny].min()):.3e} squares to "
                              f"{float(var[tiny].min()):.3e} (underflow)")
-        return cls(np.diag(var), np.diag(s))
+        if s.ndim == 1:
+            return cls(np.diag(var), np.diag(s))
+        eye = np.eye(s.shape[-1])
+        return cls(var[..., None] * eye, s[..., None] * eye)
 
     @classmethod
     def from_sqrt(cls, sqrt: Array) -> Noise:
         """From any finite factor ``S`` (d, k): ``cov = S Sᵀ``."""
         sqrt = _as_matrix(sqrt, "factor")
         with np.errstate(over="ignore", invalid="ignore"):
-            cov = sqrt @ sqrt.T
+            cov = sqrt @ np.swapaxes(sqrt, -1, -2)
         if not np.isfinite(cov).all():
             raise NoiseError("noise factor squares to a non-finite covariance")
-        return cls(0.5 * (cov + cov.T), sqrt)
+        return cls(0.5 * (cov + np.swapaxes(cov, -1, -2)), sqrt)
 
     @property
     def dim(self) -> int:
-        return self.cov.shape[0]
+        return self.cov.shape[-1]
 
 
 @dataclass(frozen=True)

@@ -209,3 +209,22 @@ def test_a_failing_run_ends_alone_with_its_per_run_reason(name):
     assert results[1].failure.startswith("NonFiniteError: non-finite measurement")
     assert results[3].failure.startswith("Divergence: run 3")
     assert [r.failure for i, r in enumerate(results) if i not in (1, 3)] == [None] * (R - 2)
+
+
+@pytest.mark.parametrize("name", ["ekf", "srckf", "ukf", "srcdkf"])
+def test_a_batch_of_noises_one_per_run(name):
+    """A transition built along each run's own mean (the drone's) carries one noise per
+    run: ``Noise`` with leading axes, equal to each run's own call."""
+    filt = make_filter(name, **SETTINGS.get(name, {}))
+    rng = np.random.default_rng(7)
+    singles, batch = _beliefs(filt, rng)
+    sig = rng.uniform(0.01, 0.2, (R, 4))
+    noise = Noise.from_sigmas(sig)
+    assert noise.cov.shape == (R, 4, 4) and noise.dim == 4
+    model = Transition(lambda X, u: X + u[..., None, :], noise)
+    u = rng.normal(0, 0.1, (R, 4))
+    out = filt.predict(batch, model, u)
+    for r, b in enumerate(singles):
+        one = filt.predict(b, Transition(lambda X, u: X + u, Noise.from_sigmas(sig[r])), u[r])
+        _close(out.mean[r], one.mean, "mean")
+        _close(out.cov[r], one.cov, "cov")
