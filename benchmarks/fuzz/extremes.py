@@ -23,7 +23,15 @@ from typing import Any
 
 from . import tomlio
 from .core import Base, Case, KeyPath, dotted, get, registrar, render
-from .schemas import NOISE, SIZE_DOWN, KeySpec, doc_numeric_paths, noise_keys, size_keys
+from .schemas import (
+    NOISE,
+    SIZE_DOWN,
+    KeySpec,
+    doc_numeric_paths,
+    noise_keys,
+    numeric_keys,
+    size_keys,
+)
 
 FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {}
 """The families of this module, by name, in definition order."""
@@ -61,11 +69,13 @@ def _tiny_value(old: Any, tiny: float, spec: KeySpec | None, rng: random.Random)
 
 
 def _noise_targets(base: Base) -> list[tuple[KeyPath, KeySpec | None]]:
-    """Every σ/noise key of the base's kind: from its schema, then the bundled world's
-    own noise-named numbers that the schema walk did not list (a kind's field class)."""
+    """Every σ/noise key of the base's kind that allows 1e-300: from its schema, then the
+    bundled world's noise-named numbers the schema walk did not find (a kind's own field
+    class).  A declared key whose range excludes 1e-300 is left out: its refusal would
+    hide every other key's outcome."""
     found: list[tuple[KeyPath, KeySpec | None]] = [(k.path, k) for k in noise_keys(base.kind)]
-    seen = {p for p, _ in found}
-    found += [(p, None) for p in doc_numeric_paths(base.doc, NOISE) if p not in seen]
+    declared = {k.path for k in numeric_keys(base.kind)}
+    found += [(p, None) for p in doc_numeric_paths(base.doc, NOISE) if p not in declared]
     return found
 
 
@@ -78,11 +88,11 @@ def fam_underflow(rng: random.Random, base: Base) -> Case:
     if not targets:  # a kind with no noise key: a σ it does not know (refused)
         targets = [(("sensor", "sigma_range_m"), None)]
     tiny = rng.choice(TINY)
-    scope = rng.random()
-    if scope < 0.5:
+    scope = rng.random()  # every key finds a class; one key names the key behind it
+    if scope < 0.3:
         chosen = [rng.choice(targets)]
         where = dotted(chosen[0][0])
-    elif scope < 0.75:
+    elif scope < 0.6:
         section = rng.choice(sorted({p[0] for p, _ in targets}))
         chosen = [t for t in targets if t[0][0] == section]
         where = f"every noise key of [{section}]" if len(chosen) > 1 else dotted(chosen[0][0])

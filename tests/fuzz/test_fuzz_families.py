@@ -26,7 +26,7 @@ from benchmarks.fuzz.mutate import (
     log_cases,
     world_cases,
 )
-from benchmarks.fuzz.schemas import NOISE, noise_keys, size_keys
+from benchmarks.fuzz.schemas import NOISE, noise_keys, numeric_keys, size_keys
 from benchmarks.fuzz.shapes import map_points
 from benchmarks.fuzz.textual import STYLES, dotted_key_text
 from benchmarks.fuzz.verdicts import null_pattern, unexplained_nulls
@@ -93,12 +93,15 @@ def test_schema_finds_the_issue_keys() -> None:
 def test_underflow_sigma_sets_noise_keys_tiny(bases: list[Base],
                                               cases: dict[str, list[Case]]) -> None:
     for case in cases["underflow-sigma"]:
-        changed = _changed(_base(bases, case), case)
+        base = _base(bases, case)
+        declared = {s.path: s for s in numeric_keys(base.kind)}
+        changed = _changed(base, case)
         assert changed, case.name
         for path, v in changed.items():
-            key = next(str(p) for p in reversed(path) if isinstance(p, str))
-            assert NOISE.search(key), (case.name, path)
+            key_path = tuple(p for p in path if isinstance(p, str))
+            assert NOISE.search(key_path[-1]), (case.name, path)
             assert v in TINY, (case.name, path, v)
+            assert key_path not in declared or declared[key_path].allows(v), (case.name, path)
 
 
 def test_kind_size_makes_runs_bigger(bases: list[Base], cases: dict[str, list[Case]]) -> None:
