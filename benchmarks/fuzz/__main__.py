@@ -181,12 +181,15 @@ def resumed(jsonl: Path, cases: list[Case]) -> dict[int, Outcome]:
 
 def baselines(bases: list[Base], lines: list[str], workdir: Path, slam: list[str],
               limits: Limits, jobs: int) -> dict[str, str]:
-    """Each unmutated (cheapened) base and the truncated log: their class should be ok;
-    if one is not, every mutation of it is suspect."""
+    """Each unmutated (cheapened) base and the truncated log, without and with figures
+    (``<name> (figures)``; the other cases run without, but ``paper-types``): their class
+    should be ok; if one is not, every mutation of it is suspect."""
     cases = [render(b, "baseline", "unmodified") for b in bases]
     cases.append(Case("log", "baseline", "unmodified", "victoria",
                       ("\n".join(lines) + "\n").encode(), world_kind=LOG_KIND))
-    return {f"{o.case.base}": o.klass if o.klass == "ok" else f"{o.klass}: {o.detail}"
+    cases += [replace(c, name="unmodified, with figures", plots=True) for c in list(cases)]
+    return {f"{o.case.base}{' (figures)' if o.case.plots else ''}":
+            o.klass if o.klass == "ok" else f"{o.klass}: {o.detail}"
             for o in run_all(cases, workdir, slam, limits, jobs)}
 
 
