@@ -1,7 +1,8 @@
 """What the classifier reads in a finished run: ``summary.json`` and stderr.
 
 * :func:`degenerate_reason` - a summary that is not a real score (no filters, a
-  non-finite value, every error exactly 0, scores from 0 runs ...);
+  non-finite value, every error of a filter or the reference exactly 0, scores from 0
+  runs ...);
 * :func:`unexplained_nulls` - nulls in a summary with no reason beside them.  The
   project's convention: a null at key ``k`` has a sibling ``k_reason`` (a non-empty
   string), or sits next to (or below) a count of what it would be computed over that is
@@ -62,13 +63,16 @@ def degenerate_reason(summary: Path) -> str | None:
     if "poses" in data and _num(data["poses"]) and data["poses"] < 2:
         return f"a log of {data['poses']} pose(s) presented as scored"
     groups = ("filters", "baselines", "reference")
+    # a dead-reckoning baseline (odometry, imu_only) on noise-free readings (every σ
+    # 1e-160) integrates exactly: all its errors 0 is a true score, not a degenerate one
+    baselines = set(data.get("baselines") or {})
     for name, entry in ((n, e) for g in groups for n, e in (data.get(g) or {}).items()):
         if not isinstance(entry, dict):
             continue
         metrics = [(p, v) for p, v in leaves(entry) if _METRIC.search(p) and _num(v)]
         if entry.get("runs_scored", 1) == 0 and metrics:
             return f"{name}: 0 runs scored but {metrics[0][0]} = {metrics[0][1]}"
-        if metrics and all(v == 0 for _, v in metrics):
+        if metrics and all(v == 0 for _, v in metrics) and name not in baselines:
             return f"{name}: every error metric is exactly 0 ({len(metrics)} of them)"
         if entry.get("landmarks_mapped") == 0 and any("landmark" in p for p, _ in metrics):
             return f"{name}: 0 landmarks mapped but landmark distances reported"

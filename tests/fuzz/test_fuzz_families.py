@@ -241,6 +241,16 @@ def test_unexplained_null_class(tmp_path: Path) -> None:
     assert null_pattern("reference.gtsam.cells[3].x") == "reference.*.cells[*].x"
 
 
+def test_exact_dead_reckoning_baseline_is_not_degenerate(tmp_path: Path) -> None:
+    """Noise-free readings (every σ 1e-160) make the odometry baseline exact: a score."""
+    zero = {"runs_scored": 1, "pos_rmse_m": 0.0, "pos_err_range_m": {"x": [0.0, 0.0]}}
+    exact = _summary(tmp_path, {"baselines": {"odometry": zero}})
+    assert assess(0, "", [], exact, []).klass == "ok"
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps({"filters": {"srckf": zero}}))
+    assert assess(0, "", [], path, []).klass == "degenerate-success"
+
+
 def test_costly_rejection_and_usage_in_details(tmp_path: Path) -> None:
     one = "error: case.toml: the key has 30000 parts\n"
     missing = tmp_path / "none.json"
