@@ -17,6 +17,8 @@ from . import tomlio
 Key = str | int
 KeyPath = tuple[Key, ...]
 F = TypeVar("F", bound=Callable[..., Any])
+LOG_KIND = "recorded-log"
+"""The ``world_kind`` of a log case."""
 
 
 @dataclass(frozen=True)
@@ -25,7 +27,8 @@ class Case:
 
     ``data`` is the file's content (``None`` when ``target`` names an existing path such
     as ``/dev/zero`` to pass instead); ``extra`` maps relative paths to side files
-    written next to it (a map or mesh file the world names).
+    written next to it (a map or mesh file the world names); ``world_kind`` is the base
+    world's ``kind`` (``recorded-log`` for a log); ``plots`` runs the case with figures.
     """
 
     kind: str  # "world" | "log"
@@ -35,6 +38,8 @@ class Case:
     data: bytes | None
     extra: tuple[tuple[str, bytes], ...] = ()
     target: str | None = None
+    world_kind: str = ""
+    plots: bool = False
 
     @property
     def ident(self) -> str:
@@ -118,7 +123,8 @@ def render(base: Base, family: str, name: str, doc: dict[str, Any] | None = None
     data = text.encode("utf-8") if isinstance(text, str) else text
     files = dict(base.extra)
     files.update(extra or {})
-    return Case("world", family, name, base.name, data, tuple(sorted(files.items())))
+    return Case("world", family, name, base.name, data, tuple(sorted(files.items())),
+                world_kind=base.kind)
 
 
 # --------------------------------------------------------------------------- key paths

@@ -8,25 +8,36 @@ Each case runs in its own folder (the child's working directory) as::
 with a wall-time limit (the whole process group is killed past it) and an address-space
 limit (``RLIMIT_AS``). Outcome classes (:data:`CLASSES`):
 
-``ok``                exit 0 and ``summary.json`` holds no degenerate score
+``ok``                exit 0, ``summary.json`` holds no degenerate score and no null
+                      without its reason, and no warning was printed
 ``rejected``          exit 2, exactly one stderr line ``error: ...`` naming the file or
                       an option, and nothing written to ``--out``
 ``traceback``         a ``Traceback`` on stderr, or exit 1
-``hang``              killed at the time limit
+``hang``              killed at the time limit (the detail gives the CPU seconds and the
+                      peak memory it had used: busy or blocked, growing or not)
 ``memory``            ``MemoryError`` / failed allocation under the memory limit
 ``crash``             killed by a signal, or an exit code other than 0, 1, 2
 ``wrote-on-error``    a non-zero exit that left ``--out`` behind
 ``degenerate-success`` exit 0 with a missing or degenerate ``summary.json``
+``warning-printed``   exit 0 with a ``...Warning:`` line on stderr (numpy's RuntimeWarning)
+``unexplained-null``  exit 0 with a null in ``summary.json`` that has no reason beside it
+                      (:func:`~benchmarks.fuzz.verdicts.unexplained_nulls`)
+``costly-rejection``  a proper rejection that cost more than ``Limits.reject_cpu_s`` CPU
+                      seconds or ``Limits.reject_mib`` MiB (a 20 000-part dotted key: 8 s and
+                      2 GB before exit 2): the input was not bounded before it was parsed
 ``multi-line-error``  exit 2 with no, or more than one, stderr line
 ``unnamed-error``     exit 2 with one line that is not ``error: ...`` naming the file/option
 ``harness-error``     the harness itself failed on the case (a bug here, not in ``slam``)
+
+Every record also carries the run's CPU seconds and peak resident memory (``wait4``) and
+its ``flags``: every one of ``warning-printed``, ``unexplained-null``, ``degenerate`` and
+``near-limit`` (a finished run that used over half the time or memory limit: slow but
+bounded, a hang on a slower machine) that applies, whatever the class.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
-import math
 import os
 import re
 import shutil
@@ -40,22 +51,35 @@ from pathlib import Path
 from typing import Any
 
 from .core import Case
+from .verdicts import degenerate_reason, printed_warnings, read_summary, unexplained_nulls
 
 CLASSES = ("ok", "rejected", "traceback", "hang", "memory", "crash", "wrote-on-error",
-           "degenerate-success", "multi-line-error", "unnamed-error", "harness-error")
+           "degenerate-success", "warning-printed", "unexplained-null", "costly-rejection",
+           "multi-line-error", "unnamed-error", "harness-error")
 GOOD = frozenset({"ok", "rejected"})
 _MEMORY = ("MemoryError", "Unable to allocate", "std::bad_alloc", "Cannot allocate memory",
            "out of memory")
-_METRIC = re.compile(r"rmse|_err|dist|mean_abs")
 
 
 @dataclass(frozen=True)
 class Limits:
-    """Per-case limits: wall seconds, address-space bytes, largest file written."""
+    """Per-case limits: wall seconds, address-space bytes, largest file written; and what
+    a rejection may cost before it is ``costly-rejection`` (CPU seconds, peak MiB)."""
 
     seconds: float = 60.0
     memory_bytes: int = 4 << 30
     file_bytes: int = 1 << 30
+    reject_cpu_s: float = 5.0
+    reject_mib: float = 1024.0
+
+
+@dataclass(frozen=True)
+class Usage:
+    """What a finished (or killed) run used: CPU seconds (user + system) and peak
+    resident memory (MiB), from ``wait4``."""
+
+    cpu_s: float = 0.0
+    peak_mib: float = 0.0
 
 
 @dataclass
@@ -69,12 +93,18 @@ class Outcome:
     detail: str
     stderr_tail: str = ""
     written: list[str] = field(default_factory=list)
+    usage: Usage = field(default_factory=Usage)
+    flags: tuple[str, ...] = ()
+    nulls: tuple[str, ...] = ()
 
     def record(self) -> dict[str, Any]:
-        """A JSON-ready summary (no file contents)."""
+        """A JSON-ready summary (no file contents; the first 10 unexplained nulls)."""
         return {"id": self.case.ident, "kind": self.case.kind, "family": self.case.family,
-                "base": self.case.base, "mutation": self.case.name, "class": self.klass,
-                "rc": self.rc, "seconds": round(self.seconds, 2), "detail": self.detail}
+                "base": self.case.base, "world_kind": self.case.world_kind,
+                "mutation": self.case.name, "class": self.klass, "rc": self.rc,
+                "seconds": round(self.seconds, 2), "cpu_s": round(self.usage.cpu_s, 2),
+                "peak_mib": round(self.usage.peak_mib, 1), "flags": list(self.flags),
+                "nulls": list(self.nulls[:10]), "detail": self.detail}
 
 
 def default_slam() -> list[str]:
@@ -125,11 +155,12 @@ def write_case(case: Case, folder: Path) -> Path:
 
 
 def command(slam: list[str], case: Case, target: Path, out: Path) -> list[str]:
-    """The ``slam run`` command line for a case."""
+    """The ``slam run`` command line for a case (``--no-plots`` unless ``case.plots``)."""
+    plots = [] if case.plots else ["--no-plots"]
     if case.kind == "world":
-        return [*slam, "run", str(target), "--runs", "1", "--workers", "1", "--no-plots",
+        return [*slam, "run", str(target), "--runs", "1", "--workers", "1", *plots,
                 "--out", str(out)]
-    return [*slam, "run", "--log", str(target), "--filters", "srckf", "--no-plots",
+    return [*slam, "run", "--log", str(target), "--filters", "srckf", *plots,
             "--out", str(out)]
 
 
@@ -145,9 +176,22 @@ def kill_all() -> None:
                 os.killpg(proc.pid, signal.SIGKILL)
 
 
-def execute(argv: list[str], cwd: Path, limits: Limits) -> tuple[int | None, float, str]:
-    """Run ``argv`` in its own process group; -> (exit code or None on timeout, s, stderr)."""
+def _reap(proc: subprocess.Popen[bytes], block: bool) -> Usage | None:
+    """``wait4`` the child: its usage once it has ended (``None`` while it runs)."""
+    pid, status, ru = os.wait4(proc.pid, 0 if block else os.WNOHANG)
+    if not pid:
+        return None
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return Usage(ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0)  # Linux: KiB
+
+
+def execute_usage(argv: list[str], cwd: Path, limits: Limits
+                  ) -> tuple[int | None, float, str, Usage]:
+    """Run ``argv`` in its own process group; -> (exit code or None on timeout, wall s,
+    stderr, CPU and peak memory used)."""
     t0 = time.perf_counter()
+    usage: Usage | None = None
+    rc: int | None = None
     with open(cwd / ".stdout", "wb") as out, open(cwd / ".stderr", "wb") as err:
         proc = subprocess.Popen(limited(argv, limits), cwd=cwd, stdin=subprocess.DEVNULL,
                                 stdout=out, stderr=err, env=child_env(),
@@ -155,17 +199,29 @@ def execute(argv: list[str], cwd: Path, limits: Limits) -> tuple[int | None, flo
         with _LIVE_LOCK:
             _LIVE.add(proc)
         try:
-            rc: int | None = proc.wait(timeout=limits.seconds)
-        except subprocess.TimeoutExpired:
-            rc = None
+            deadline = t0 + limits.seconds
+            while (usage := _reap(proc, block=False)) is None:
+                if time.perf_counter() >= deadline:
+                    break
+                time.sleep(0.05)
+            if usage is not None:
+                rc = proc.returncode
         finally:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGKILL)  # the run and anything it left behind
-            proc.wait()
+            if usage is None:
+                with contextlib.suppress(ChildProcessError):
+                    usage = _reap(proc, block=True)
             with _LIVE_LOCK:
                 _LIVE.discard(proc)
     seconds = time.perf_counter() - t0
     stderr = (cwd / ".stderr").read_bytes()[-200_000:].decode("utf-8", "replace")
+    return rc, seconds, stderr, usage or Usage()
+
+
+def execute(argv: list[str], cwd: Path, limits: Limits) -> tuple[int | None, float, str]:
+    """Run ``argv`` in its own process group; -> (exit code or None on timeout, s, stderr)."""
+    rc, seconds, stderr, _ = execute_usage(argv, cwd, limits)
     return rc, seconds, stderr
 
 
@@ -184,16 +240,19 @@ def _run_in(case: Case, folder: Path, slam: list[str], limits: Limits, keep_fold
             ) -> Outcome:
     target = write_case(case, folder)
     out = Path("out")
-    rc, seconds, stderr = execute(command(slam, case, target, out), folder, limits)
+    rc, seconds, stderr, usage = execute_usage(command(slam, case, target, out), folder,
+                                               limits)
     written = sorted(str(p.relative_to(folder)) for p in (folder / out).rglob("*"))
     if (folder / out).exists() and not written:
         written = ["out/ (empty folder)"]
     names = [target.name, str(target)] if case.target is None else [str(target)]
-    klass, detail = classify(rc, stderr, written, folder / out / "summary.json", names)
+    v = assess(rc, stderr, written, folder / out / "summary.json", names, usage, limits,
+               seconds)
     tail = "\n".join(stderr.rstrip().splitlines()[-40:])
     if not keep_folder:
         shutil.rmtree(folder, ignore_errors=True)
-    return Outcome(case, klass, rc, seconds, detail, tail, written)
+    return Outcome(case, v.klass, rc, seconds, v.detail, tail, written, usage, v.flags,
+                   v.nulls)
 
 
 # --------------------------------------------------------------------------- classifier
@@ -220,76 +279,85 @@ def explain(stderr: str) -> str:
     return lines[-1] if lines else ""
 
 
-def classify(rc: int | None, stderr: str, written: list[str], summary: Path,
-             names: list[str]) -> tuple[str, str]:
-    """-> (class, detail) for one finished run; ``names`` are how the input may be named."""
+@dataclass(frozen=True)
+class Verdict:
+    """A run's class, its detail line, the flags that apply and its unexplained nulls."""
+
+    klass: str
+    detail: str
+    flags: tuple[str, ...] = ()
+    nulls: tuple[str, ...] = ()
+
+
+def _mib(n: float) -> str:
+    return f"{n / 1024:.1f} GiB" if n >= 1024 else f"{n:.0f} MiB"
+
+
+def assess(rc: int | None, stderr: str, written: list[str], summary: Path, names: list[str],
+           usage: Usage | None = None, limits: Limits | None = None,
+           seconds: float = 0.0) -> Verdict:
+    """The :class:`Verdict` on one run; ``names`` are how the input may be named, ``usage``
+    and ``limits`` tell a costly rejection and a run near its limits."""
+    usage, limits = usage or Usage(), limits or Limits()
     lines = [ln for ln in stderr.splitlines() if ln.strip()]
     last = lines[-1].strip() if lines else ""
+    used = f"cpu {usage.cpu_s:.1f} s, peak {_mib(usage.peak_mib)}"
     if rc is None:
-        return "hang", f"killed at the time limit; {explain(stderr)}".rstrip("; ")
+        return Verdict("hang", f"killed at the time limit ({used}); {explain(stderr)}"
+                       .rstrip("; "))
+    flags: list[str] = []
+    if (seconds > limits.seconds / 2 or usage.peak_mib * (1 << 20) > limits.memory_bytes / 2):
+        flags.append("near-limit")
     if any(m in stderr for m in _MEMORY):
-        return "memory", explain(stderr)
+        return Verdict("memory", f"{explain(stderr)} ({used})", tuple(flags))
     if "Traceback" in stderr or rc == 1:
-        return "traceback", explain(stderr) or f"exit {rc}, no message"
+        return Verdict("traceback", explain(stderr) or f"exit {rc}, no message", tuple(flags))
     if rc < 0:
-        return "crash", f"killed by {signal.Signals(-rc).name}; {explain(stderr)}"
+        return Verdict("crash", f"killed by {signal.Signals(-rc).name}; {explain(stderr)}")
     if rc not in (0, 2):
-        return "crash", f"exit {rc}; {explain(stderr)}"
+        return Verdict("crash", f"exit {rc}; {explain(stderr)}")
     if rc == 0:
-        reason = degenerate_reason(summary)
-        if reason:
-            return "degenerate-success", reason
-        return "ok", f"{len(lines)} stderr lines, e.g. {explain(stderr)}" if lines else ""
+        return _assess_success(stderr, lines, summary, flags)
     if written:
-        return "wrote-on-error", f"left {', '.join(written[:5])}; {last}"
+        return Verdict("wrote-on-error", f"left {', '.join(written[:5])}; {last}")
     if len(lines) != 1:
-        return "multi-line-error", f"{len(lines)} stderr lines; {last}"
+        return Verdict("multi-line-error", f"{len(lines)} stderr lines; {last}")
     if not last.startswith("error:"):
-        return "unnamed-error", last
+        return Verdict("unnamed-error", last)
     if not any(n and n in last for n in names) and " --" not in last:
-        return "unnamed-error", last
-    return "rejected", last
+        return Verdict("unnamed-error", last)
+    if usage.cpu_s > limits.reject_cpu_s or usage.peak_mib > limits.reject_mib:
+        return Verdict("costly-rejection", f"{used} to refuse it; {last}", tuple(flags))
+    return Verdict("rejected", last, tuple(flags))
 
 
-def _leaves(obj: Any, path: str = "") -> list[tuple[str, Any]]:
-    if isinstance(obj, dict):
-        return [x for k, v in obj.items() for x in _leaves(v, f"{path}.{k}" if path else k)]
-    if isinstance(obj, list):
-        return [x for i, v in enumerate(obj) for x in _leaves(v, f"{path}[{i}]")]
-    return [(path, obj)]
+def _assess_success(stderr: str, lines: list[str], summary: Path, flags: list[str]
+                    ) -> Verdict:
+    """An exit-0 run: degenerate score > printed warning > unexplained null > ok."""
+    degenerate = degenerate_reason(summary)
+    warned = printed_warnings(stderr)
+    data = read_summary(summary)
+    nulls = tuple(unexplained_nulls(data)) if isinstance(data, dict) else ()
+    flags += [f for f, on in (("degenerate", degenerate), ("warning-printed", warned),
+                              ("unexplained-null", nulls)) if on]
+    if degenerate:
+        return Verdict("degenerate-success", degenerate, tuple(flags), nulls)
+    if warned:
+        return Verdict("warning-printed", f"{len(warned)} warning line(s), e.g. {warned[0]}",
+                       tuple(flags), nulls)
+    if nulls:
+        shown = ", ".join(nulls[:3]) + (f" (+{len(nulls) - 3} more)" if len(nulls) > 3 else "")
+        return Verdict("unexplained-null", f"{len(nulls)} null(s) without a reason: {shown}",
+                       tuple(flags), nulls)
+    detail = f"{len(lines)} stderr lines, e.g. {explain(stderr)}" if lines else ""
+    return Verdict("ok", detail, tuple(flags))
 
 
-def _num(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool)
-
-
-def degenerate_reason(summary: Path) -> str | None:
-    """Why a successful run's ``summary.json`` is not a real score, or ``None``."""
-    try:
-        data = json.loads(summary.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        return f"no readable summary.json ({type(exc).__name__})"
-    if not isinstance(data, dict):
-        return "summary.json is not an object"
-    if not data.get("filters"):
-        return "no filter results in summary.json"
-    for path, v in _leaves({k: v for k, v in data.items() if k != "paper"}):
-        if _num(v) and not math.isfinite(v):
-            return f"non-finite value {path} = {v}"
-    if "poses" in data and _num(data["poses"]) and data["poses"] < 2:
-        return f"a log of {data['poses']} pose(s) presented as scored"
-    groups = ("filters", "baselines", "reference")
-    for name, entry in ((n, e) for g in groups for n, e in (data.get(g) or {}).items()):
-        if not isinstance(entry, dict):
-            continue
-        metrics = [(p, v) for p, v in _leaves(entry) if _METRIC.search(p) and _num(v)]
-        if entry.get("runs_scored", 1) == 0 and metrics:
-            return f"{name}: 0 runs scored but {metrics[0][0]} = {metrics[0][1]}"
-        if metrics and all(v == 0 for _, v in metrics):
-            return f"{name}: every error metric is exactly 0 ({len(metrics)} of them)"
-        if entry.get("landmarks_mapped") == 0 and any("landmark" in p for p, _ in metrics):
-            return f"{name}: 0 landmarks mapped but landmark distances reported"
-    return None
+def classify(rc: int | None, stderr: str, written: list[str], summary: Path,
+             names: list[str]) -> tuple[str, str]:
+    """-> (class, detail) for one finished run (no usage figures: see :func:`assess`)."""
+    v = assess(rc, stderr, written, summary, names)
+    return v.klass, v.detail
 
 
 # --------------------------------------------------------------------------- --out probe
@@ -317,6 +385,6 @@ def out_probe(slam: list[str], workdir: Path, good: Case, bad: Case, log: Case,
     return results
 
 
-__all__ = ["CLASSES", "GOOD", "Limits", "Outcome", "classify", "command",
-           "default_slam", "degenerate_reason", "execute", "kill_all", "out_probe", "run_case",
-           "write_case"]
+__all__ = ["CLASSES", "GOOD", "Limits", "Outcome", "Usage", "Verdict", "assess", "classify",
+           "command", "default_slam", "degenerate_reason", "execute", "execute_usage",
+           "kill_all", "out_probe", "run_case", "write_case"]

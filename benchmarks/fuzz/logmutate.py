@@ -13,7 +13,7 @@ import random
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import ELF_HEADER, Case, binary_junk, registrar, seeded_families
+from .core import ELF_HEADER, LOG_KIND, Case, binary_junk, registrar, seeded_families
 
 FIELDS = {
     "ODOMETRY": ("tag", "i", "j", "dx", "dy", "dθ", "cxx", "cxy", "cxθ", "cyy", "cyθ", "cθθ"),
@@ -233,6 +233,39 @@ def fam_huge(rng: random.Random, lines: list[str]) -> Result:
     return name, _join(out)
 
 
+def _huge_ints(rng: random.Random) -> tuple[str, str]:
+    """A hostile integer token and its description: beyond int64 or GTSAM's 56-bit key
+    index, or with more digits than Python converts by default (4 300)."""
+    digits = rng.choice([4300, 4301, 5000, 20_000])
+    return rng.choice([
+        (str(2**56), "2**56"), (str(2**63), "2**63"), (str(2**64), "2**64"),
+        (str(10**19), "1e19"), (str(10**100), "1e100"), ("+" + str(2**63), "+2**63"),
+        ("1" * digits, f"a {digits}-digit id"), ("0" * (digits - 1) + "7",
+                                                f"7 with {digits - 1} leading zeros"),
+        ("-" + "9" * digits, f"a negative {digits}-digit id"),
+    ])
+
+
+@mutator("log-huge-int")
+def fam_huge_int(rng: random.Random, lines: list[str]) -> Result:
+    """A pose or landmark id beyond int64, or of thousands of digits, in one line or every
+    line (a 5000-digit id hit Python's int-digits limit: a ValueError traceback)."""
+    out = list(lines)
+    tok, what = _huge_ints(rng)
+    tag, j, role = rng.choice([("ODOMETRY", 1, "from-pose"), ("ODOMETRY", 2, "to-pose"),
+                               ("LANDMARK", 1, "pose"), ("LANDMARK", 2, "landmark")])
+    rows = _rows(out, tag)
+    if rng.random() < 0.7:
+        i = rng.choice(rows)
+        _set(out, i, j, tok)
+        where = f"line {i + 1}"
+    else:
+        for i in rows:
+            _set(out, i, j, tok)
+        where = f"every {tag}"
+    return f"{where}: {tag} {role} id = {what}", _join(out)
+
+
 _PATHS = ("/dev/zero", "/dev/null", ".", "missing.txt", "/etc/passwd")
 
 
@@ -250,7 +283,8 @@ def log_cases(n: int, seed: int, lines: list[str],
     for rng, family in seeded_families(n, seed, "log", families or list(LOG_FAMILIES)):
         name, result = LOG_FAMILIES[family](rng, lines)
         if isinstance(result, str):
-            out.append(Case("log", family, name, "victoria", None, target=result))
+            out.append(Case("log", family, name, "victoria", None, target=result,
+                            world_kind=LOG_KIND))
         else:
-            out.append(Case("log", family, name, "victoria", result))
+            out.append(Case("log", family, name, "victoria", result, world_kind=LOG_KIND))
     return out

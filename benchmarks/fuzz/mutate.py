@@ -19,7 +19,7 @@ import random
 from collections.abc import Callable
 from typing import Any
 
-from . import shapes, tomlio
+from . import extremes, paths, shapes, textual, tomlio
 from .core import (
     Base,
     Case,
@@ -42,7 +42,8 @@ __all__ = ["Base", "Case", "WORLD_FAMILIES", "LOG_FAMILIES", "load_bases", "load
 
 WORLD_FAMILIES: dict[str, Callable[[random.Random, Base], Case]] = {}
 """World mutator families, by name: this module's in definition order (each added by
-``@mutator``), then :data:`~benchmarks.fuzz.shapes.FAMILIES` (added after the last)."""
+``@mutator``), then those of :mod:`~benchmarks.fuzz.shapes`, :mod:`~benchmarks.fuzz.extremes`,
+:mod:`~benchmarks.fuzz.paths` and :mod:`~benchmarks.fuzz.textual` (added after the last)."""
 mutator = registrar(WORLD_FAMILIES)
 
 
@@ -232,15 +233,26 @@ def fam_filters(rng: random.Random, base: Base) -> Case:
     return render(base, "filters", f"filters.{key} = {tomlio.value(new)}", doc)
 
 
-WORLD_FAMILIES.update(shapes.FAMILIES)
+for _module in (shapes, extremes, paths, textual):
+    for _name, _fn in _module.FAMILIES.items():
+        if _name in WORLD_FAMILIES:
+            raise ValueError(f"mutator family {_name!r} defined twice")
+        WORLD_FAMILIES[_name] = _fn
 
 
 def world_cases(n: int, seed: int, bases: list[Base],
                 families: list[str] | None = None) -> list[Case]:
-    """``n`` world cases for ``seed``: case ``i`` uses family ``i mod F`` and a seeded base."""
+    """``n`` world cases for ``seed``: case ``i`` uses family ``i mod F``; a family's
+    ``k``-th case uses base ``k mod B`` of a seeded order of the bases (each family
+    visits every base once before any twice)."""
+    names = families or list(WORLD_FAMILIES)
+    orders: dict[str, list[Base]] = {}
+    for f in names:
+        orders[f] = list(bases)
+        random.Random(f"{seed}:bases:{f}").shuffle(orders[f])
     out = []
-    for rng, family in seeded_families(n, seed, "world", families or list(WORLD_FAMILIES)):
-        base = bases[rng.randrange(len(bases))]
+    for i, (rng, family) in enumerate(seeded_families(n, seed, "world", names)):
+        base = orders[family][(i // len(names)) % len(bases)]
         out.append(WORLD_FAMILIES[family](rng, base))
     return out
 

@@ -25,7 +25,7 @@ Edit = Callable[[Doc, dict[str, bytes]], str]
 
 # --------------------------------------------------------------------------- map access
 
-def _map_points(base: Base, doc: Doc) -> tuple[list[list[float]], list[list[float]]]:
+def map_points(base: Base, doc: Doc) -> tuple[list[list[float]], list[list[float]]]:
     """(landmarks, waypoints) of a planar/drone world, from the document or its map file."""
     mp = doc.get("map", {})
     if "file" in mp:
@@ -34,7 +34,7 @@ def _map_points(base: Base, doc: Doc) -> tuple[list[list[float]], list[list[floa
     return (copy.deepcopy(mp.get("landmarks", [])), copy.deepcopy(mp.get("waypoints", [])))
 
 
-def _set_map(doc: Doc, extra: dict[str, bytes], lm: list[list[float]] | None = None,
+def set_map(doc: Doc, extra: dict[str, bytes], lm: list[list[float]] | None = None,
              wp: list[list[float]] | None = None) -> None:
     """Write landmarks/waypoints back where they came from (document or map file)."""
     mp = doc.setdefault("map", {})
@@ -53,20 +53,20 @@ def _set_map(doc: Doc, extra: dict[str, bytes], lm: list[list[float]] | None = N
         mp["waypoints"] = wp
 
 
-def _start(doc: Doc) -> tuple[list[float], float]:
+def start_of(doc: Doc) -> tuple[list[float], float]:
     veh = doc.get("vehicle", {})
     xy = list(veh.get("start_xy_m", [0.0, 0.0]))
     return xy, math.radians(float(veh.get("start_heading_deg", 0.0)))
 
 
-def _edit(base: Base, family: str, name: str, edit: Callable[[Doc, dict[str, bytes]], Any]
+def edit_case(base: Base, family: str, name: str, edit: Callable[[Doc, dict[str, bytes]], Any]
           ) -> Case:
     doc, extra = copy.deepcopy(base.doc), dict(base.extra)
     edit(doc, extra)
     return render(base, family, name, doc, extra=extra)
 
 
-def _sets(*items: tuple[str, Any]) -> Callable[[Doc, dict[str, bytes]], None]:
+def sets(*items: tuple[str, Any]) -> Callable[[Doc, dict[str, bytes]], None]:
     """An edit setting dotted keys (``"imu.rate_hz"``) to values."""
     def edit(d: Doc, e: dict[str, bytes]) -> None:
         for k, v in items:
@@ -80,40 +80,40 @@ def _sets(*items: tuple[str, Any]) -> Callable[[Doc, dict[str, bytes]], None]:
 
 def _geometry_slam(rng: random.Random, base: Base) -> tuple[str, Callable[..., Any]]:
     doc = base.doc
-    lm, wp = _map_points(base, doc)
-    (sx, sy), h = _start(doc)
+    lm, wp = map_points(base, doc)
+    (sx, sy), h = start_of(doc)
     side = rng.choice([2.0, 3.0, 5.0])
     inside = [sx - side * math.sin(h), sy + side * math.cos(h)]
     b = doc.get("map", {}).get("bounds_m", [0.0, 100.0, 0.0, 100.0])
     options: list[tuple[str, Callable[..., Any]]] = [
-        ("waypoints all at the start", lambda d, e: _set_map(d, e, wp=[[sx, sy]] * 3)),
-        ("one waypoint, at the start", lambda d, e: _set_map(d, e, wp=[[sx, sy]])),
+        ("waypoints all at the start", lambda d, e: set_map(d, e, wp=[[sx, sy]] * 3)),
+        ("one waypoint, at the start", lambda d, e: set_map(d, e, wp=[[sx, sy]])),
         (f"waypoint {side} m beside the start (inside the turning circle)",
-         lambda d, e: _set_map(d, e, wp=[inside, *wp])),
-        ("all landmarks at one point", lambda d, e: _set_map(d, e, lm=[[50.0, 50.0]] * 5)),
-        ("a landmark at the start", lambda d, e: _set_map(d, e, lm=[[sx, sy], *lm])),
-        ("no landmarks", lambda d, e: _set_map(d, e, lm=[])),
-        ("no waypoints", lambda d, e: _set_map(d, e, wp=[])),
-        ("waypoint on a landmark", lambda d, e: _set_map(d, e, wp=[lm[0], *wp[1:]])),
+         lambda d, e: set_map(d, e, wp=[inside, *wp])),
+        ("all landmarks at one point", lambda d, e: set_map(d, e, lm=[[50.0, 50.0]] * 5)),
+        ("a landmark at the start", lambda d, e: set_map(d, e, lm=[[sx, sy], *lm])),
+        ("no landmarks", lambda d, e: set_map(d, e, lm=[])),
+        ("no waypoints", lambda d, e: set_map(d, e, wp=[])),
+        ("waypoint on a landmark", lambda d, e: set_map(d, e, wp=[lm[0], *wp[1:]])),
         ("back-and-forth waypoints 1 m apart",
-         lambda d, e: _set_map(d, e, wp=[[sx + 1.0, sy], [sx, sy]] * 2)),
-        ("waypoints 1e6 m away", lambda d, e: _set_map(d, e, wp=[[1e6, 1e6], [sx, sy]])),
+         lambda d, e: set_map(d, e, wp=[[sx + 1.0, sy], [sx, sy]] * 2)),
+        ("waypoints 1e6 m away", lambda d, e: set_map(d, e, wp=[[1e6, 1e6], [sx, sy]])),
         ("two landmarks 1e-9 m apart",
-         lambda d, e: _set_map(d, e, lm=[lm[0], [lm[0][0] + 1e-9, lm[0][1]], *lm[1:]])),
-        ("bounds inverted", _sets(("map.bounds_m", [b[1], b[0], b[3], b[2]]))),
-        ("bounds of zero area", _sets(("map.bounds_m", [0.0, 0.0, 0.0, 0.0]))),
-        ("start outside the bounds", _sets(("vehicle.start_xy_m", [1e5, 1e5]))),
-        ("at_waypoint_m = 100", _sets(("vehicle.at_waypoint_m", 100.0))),
-        ("sensor range 1e-9 m", _sets(("sensor.max_range_m", 1e-9))),
+         lambda d, e: set_map(d, e, lm=[lm[0], [lm[0][0] + 1e-9, lm[0][1]], *lm[1:]])),
+        ("bounds inverted", sets(("map.bounds_m", [b[1], b[0], b[3], b[2]]))),
+        ("bounds of zero area", sets(("map.bounds_m", [0.0, 0.0, 0.0, 0.0]))),
+        ("start outside the bounds", sets(("vehicle.start_xy_m", [1e5, 1e5]))),
+        ("at_waypoint_m = 100", sets(("vehicle.at_waypoint_m", 100.0))),
+        ("sensor range 1e-9 m", sets(("sensor.max_range_m", 1e-9))),
     ]
     if base.kind == "drone-slam":
-        options += [("min_range_m > max_range_m", _sets(("sensor.min_range_m", 50.0))),
-                    ("fov 1e-9 deg", _sets(("sensor.fov_azimuth_half_deg", 1e-9))),
+        options += [("min_range_m > max_range_m", sets(("sensor.min_range_m", 50.0))),
+                    ("fov 1e-9 deg", sets(("sensor.fov_azimuth_half_deg", 1e-9))),
                     ("height_above_ground_m = 1e-9",
-                     _sets(("vehicle.height_above_ground_m", 1e-9)))]
+                     sets(("vehicle.height_above_ground_m", 1e-9)))]
     else:
-        options += [("wheelbase_m = 1e-9", _sets(("vehicle.wheelbase_m", 1e-9))),
-                    ("max_steer_deg = 1e-9", _sets(("vehicle.max_steer_deg", 1e-9)))]
+        options += [("wheelbase_m = 1e-9", sets(("vehicle.wheelbase_m", 1e-9))),
+                    ("max_steer_deg = 1e-9", sets(("vehicle.max_steer_deg", 1e-9)))]
     return rng.choice(options)
 
 
@@ -149,12 +149,12 @@ def fam_geometry(rng: random.Random, base: Base) -> Case:
     """Degenerate geometry of the SLAM kinds' maps and paths, or of the attitude kind's
     star sensor; a kind with neither gets its degenerate settings from the attitude list
     (mostly unknown keys to it: refused, which is what the fuzzing checks then)."""
-    lm, wp = _map_points(base, base.doc) if "map" in base.doc else ([], [])
+    lm, wp = map_points(base, base.doc) if "map" in base.doc else ([], [])
     if base.kind in ("planar-slam", "drone-slam") and lm and wp:
         name, edit = _geometry_slam(rng, base)
     else:
         name, edit = _geometry_attitude(rng)
-    return _edit(base, "geometry", name, edit)
+    return edit_case(base, "geometry", name, edit)
 
 
 # --------------------------------------------------------------------------- huge sizes
@@ -164,40 +164,40 @@ def fam_huge(rng: random.Random, base: Base) -> Case:
     """In-range values whose product is a huge run: long, fine-grained or wide."""
     many = [[(i * 7.31) % 100.0, (i * 3.17) % 100.0] for i in range(20_000)]
     common: list[tuple[str, Callable[..., Any]]] = [
-        ("speed_mps = 1e-300", _sets(("vehicle.speed_mps", 1e-300))),
-        ("speed_mps = 1e-6", _sets(("vehicle.speed_mps", 1e-6))),
-        ("loops = 100", _sets(("vehicle.loops", 100))),
-        ("20000 landmarks", lambda d, e: _set_map(d, e, lm=many)),
+        ("speed_mps = 1e-300", sets(("vehicle.speed_mps", 1e-300))),
+        ("speed_mps = 1e-6", sets(("vehicle.speed_mps", 1e-6))),
+        ("loops = 100", sets(("vehicle.loops", 100))),
+        ("20000 landmarks", lambda d, e: set_map(d, e, lm=many)),
     ]
     by_kind: dict[str, list[tuple[str, Callable[..., Any]]]] = {
         "planar-slam": common + [
-            ("period_steps = 100000", _sets(("sensor.period_steps", 100_000))),
-            ("dt_s = 1e-6", _sets(("vehicle.dt_s", 1e-6))),
-            ("dt_s = 1e-308", _sets(("vehicle.dt_s", 1e-308))),
-            ("steer_rate_deg_s = 1e-308", _sets(("vehicle.steer_rate_deg_s", 1e-308))),
+            ("period_steps = 100000", sets(("sensor.period_steps", 100_000))),
+            ("dt_s = 1e-6", sets(("vehicle.dt_s", 1e-6))),
+            ("dt_s = 1e-308", sets(("vehicle.dt_s", 1e-308))),
+            ("steer_rate_deg_s = 1e-308", sets(("vehicle.steer_rate_deg_s", 1e-308))),
             ("range 10000 m, 2000 landmarks, joint",
-             _sets(("sensor.max_range_m", 1e4), ("filters.mode", "joint"),
+             sets(("sensor.max_range_m", 1e4), ("filters.mode", "joint"),
                    ("map.landmarks", many[:2000]), ("map.file", None))),
         ],
         "drone-slam": common + [
-            ("imu rate_hz = 10000", _sets(("imu.rate_hz", 10_000.0))),
-            ("sensor rate_hz = 1000", _sets(("sensor.rate_hz", 1000.0))),
-            ("grid 0.1 m, margin 1e4 m", _sets(("terrain.grid_spacing_m", 0.1),
+            ("imu rate_hz = 10000", sets(("imu.rate_hz", 10_000.0))),
+            ("sensor rate_hz = 1000", sets(("sensor.rate_hz", 1000.0))),
+            ("grid 0.1 m, margin 1e4 m", sets(("terrain.grid_spacing_m", 0.1),
                                                ("terrain.margin_m", 1e4))),
-            ("altitude_smoothing_s = 1e-308", _sets(("vehicle.altitude_smoothing_s", 1e-308))),
-            ("max_turn_accel_deg_s2 = 1e-300", _sets(("vehicle.max_turn_accel_deg_s2", 1e-300))),
-            ("100 hills", _sets(("terrain.type", "hills"), ("terrain.hill_amplitude_m", 5.0),
+            ("altitude_smoothing_s = 1e-308", sets(("vehicle.altitude_smoothing_s", 1e-308))),
+            ("max_turn_accel_deg_s2 = 1e-300", sets(("vehicle.max_turn_accel_deg_s2", 1e-300))),
+            ("100 hills", sets(("terrain.type", "hills"), ("terrain.hill_amplitude_m", 5.0),
                                 ("terrain.hill_width_m", 9.0),
                                 ("terrain.hill_centres_m", many[:100]))),
         ],
         "attitude": [
-            ("gyro 10000 Hz for 86400 s", _sets(("gyro.rate_hz", 10_000.0),
+            ("gyro 10000 Hz for 86400 s", sets(("gyro.rate_hz", 10_000.0),
                                                 ("duration_s", 86_400.0))),
-            ("star 1000 Hz for 86400 s", _sets(("star_sensor.rate_hz", 1000.0),
+            ("star 1000 Hz for 86400 s", sets(("star_sensor.rate_hz", 1000.0),
                                                ("duration_s", 86_400.0))),
-            ("duration_s = 86400", _sets(("duration_s", 86_400.0))),
-            ("gyro rate_hz = 1e-300", _sets(("gyro.rate_hz", 1e-300))),
-            ("star rate_hz = 1e-300", _sets(("star_sensor.rate_hz", 1e-300))),
+            ("duration_s = 86400", sets(("duration_s", 86_400.0))),
+            ("gyro rate_hz = 1e-300", sets(("gyro.rate_hz", 1e-300))),
+            ("star rate_hz = 1e-300", sets(("star_sensor.rate_hz", 1e-300))),
         ],
     }
     name, edit = rng.choice(by_kind.get(base.kind, common))
@@ -207,10 +207,10 @@ def fam_huge(rng: random.Random, base: Base) -> Case:
         mp = d.get("map", {})
         if mp.get("file", 0) is None:  # "map.file = None" above: use inline landmarks
             mp.pop("file")
-            _, wp = _map_points(base, base.doc)
+            _, wp = map_points(base, base.doc)
             mp.setdefault("waypoints", wp)
 
-    return _edit(base, "huge-size", name, apply)
+    return edit_case(base, "huge-size", name, apply)
 
 
 # --------------------------------------------------------------------------- files
