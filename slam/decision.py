@@ -49,8 +49,8 @@ def _metric_sentence(block: Mapping[str, Any], unit_fmt: str = ".3g") -> str:
     others = []
     for name in block["order"][1:]:
         r = rows[name]
-        if r["verdict"] == "identical":
-            others.append(f"{name} identical")
+        if r["verdict"] == "equal":
+            others.append(f"{name} equal to 1e-6")
         elif r["z"] is None:
             others.append(f"{name} {_pct(r)} (every run worse)")
         else:

@@ -15,8 +15,9 @@ Filter ``i`` is *significantly worse* than the best when :math:`\bar d_i > 2 s_i
 (:data:`LEVEL`), and *separated* from it when :math:`\bar d_i > 3 s_i` (:data:`SEPARATED`,
 the level a world built to tell the filters apart must reach).  Ranks follow
 :math:`\bar m_i`; a rank is only meaningful where the difference is significant, and the
-report says so.  The difference of two filters that coincide to round-off has
-:math:`s_i = 0`: it is reported as ``identical`` rather than as infinitely significant.
+report says so.  Filters whose mean MSEs agree to :data:`IDENTICAL_RTOL` are *equal*:
+they share a rank (listed by name) whatever their z, since a difference of a millionth is
+round-off, not a property of the filter.
 """
 
 from __future__ import annotations
@@ -35,8 +36,11 @@ LEVEL = 2.0
 """Standard errors a paired difference must exceed to be called significant."""
 SEPARATED = 3.0
 """Standard errors a world made to separate the filters aims at."""
-IDENTICAL_RTOL = 1e-9
-"""Mean paired differences below this fraction of the best MSE count as identical."""
+IDENTICAL_RTOL = 1e-6
+"""Filters whose mean MSEs differ by less than this fraction of the best one are *equal*:
+a difference of a millionth is the arithmetic's (a differenced Jacobian, the order of a
+sum), not the filter's, however many standard errors it is.  Equal filters share a rank
+and are listed by name, so a ranking does not depend on round-off."""
 
 
 @dataclass(frozen=True)
@@ -97,9 +101,23 @@ def paired(a: Array, b: Array) -> dict[str, Any]:
     return out
 
 
+def _ranks(mean: Array, names: Sequence[str]) -> list[int]:
+    """Competition ranks by mean MSE, a filter within :data:`IDENTICAL_RTOL` of the one
+    before it sharing its rank."""
+    order = sorted(range(len(names)), key=lambda i: (mean[i], names[i]))
+    ranks = [0] * len(names)
+    lead = None
+    for pos, i in enumerate(order, start=1):
+        if lead is not None and abs(mean[i] - mean[lead]) <= IDENTICAL_RTOL * abs(mean[lead]):
+            ranks[i] = ranks[lead]
+        else:
+            ranks[i], lead = pos, i
+    return ranks
+
+
 def _verdict(dm: float, se: float, best_mse: float) -> str:
     if abs(dm) <= IDENTICAL_RTOL * max(abs(best_mse), 1e-300):
-        return "identical"
+        return "equal"
     if se == 0.0:
         return "worse"
     z = dm / se
@@ -114,10 +132,12 @@ def rank(metric: Metric, names: Sequence[str] | None = None, reference: str | No
     metric's per-run MSE (module docstring), as a ``summary.json`` block.
 
     Returns ``label``, ``unit``, ``runs`` (paired runs), ``best``, ``order`` and per filter
-    ``rank``, ``rmse``, ``mse``, ``delta_mse``/``delta_se`` against the best (0 for the
-    best), ``delta_percent`` (of the best's RMSE), ``z`` (``None`` with ``z_reason`` when the
-    standard error is 0), ``better_runs`` (runs it beat the best) and ``verdict`` (``best``,
-    ``identical``, ``not significant``, ``significant``, ``separated``, ``worse``); with fewer
+    ``rank`` (equal filters share one: :data:`IDENTICAL_RTOL`), ``rmse``, ``mse``,
+    ``delta_mse``/``delta_se`` against the best (0 for the best), ``delta_percent`` (of the
+    best's RMSE), ``z`` (``None`` with ``z_reason`` when the standard error is 0),
+    ``better_runs`` (runs it beat the best) and ``verdict`` (``best``, ``equal`` (to
+    :data:`IDENTICAL_RTOL`), ``not significant``, ``significant``, ``separated``,
+    ``worse``); with fewer
     than 2 paired runs only ``runs`` and a ``reason``.  ``reference`` (e.g. the smoother,
     not ranked) adds its ``rmse`` over the runs it finished among the paired ones and the
     best filter's RMSE over it on those runs (``reference.best_over_reference``).
@@ -135,12 +155,14 @@ def rank(metric: Metric, names: Sequence[str] | None = None, reference: str | No
         return {**out, "reason": f"{R} run(s) finished by every filter; ranking needs 2"}
     M = M[:, common]
     mean = M.mean(axis=1)
-    order = [int(i) for i in np.argsort(mean, kind="stable")]
+    ranks = _ranks(mean, names)
+    order = sorted(range(len(names)), key=lambda i: (ranks[i], names[i]))
     b = order[0]
     out["best"] = names[b]
     out["order"] = [names[i] for i in order]
     rows: dict[str, Any] = {}
-    for r, i in enumerate(order, start=1):
+    for i in order:
+        r = ranks[i]
         d = M[i] - M[b]
         dm = float(d.mean())
         se = float(d.std(ddof=1) / math.sqrt(R))

@@ -33,7 +33,23 @@ def test_paired_difference_equals_a_hand_computation():
     assert rb["verdict"] == ("separated" if mean / se > 3 else "significant"
                              if mean / se > 2 else "not significant")
     rc = out["rows"]["c"]
-    assert rc["verdict"] == "identical" and rc["z"] is None and rc["z_reason"]
+    assert rc["verdict"] == "equal" and rc["z"] is None and rc["z_reason"]
+    assert rc["rank"] == out["rows"]["a"]["rank"] == 1 and out["order"][:2] == ["a", "c"]
+
+
+def test_filters_equal_to_a_millionth_share_a_rank_and_are_listed_by_name():
+    """A systematic 1e-8 difference (a differenced Jacobian's) is many standard errors but
+    not a filter property: equal, one rank, alphabetical, whichever has the lower mean."""
+    base = np.linspace(1.0, 2.0, 20)
+    out = rank(Metric("att", "attitude", "arcsec", {"srckf": base * (1 + 1e-8), "ekf": base,
+                                                    "srukf": base * 1.05}))
+    assert out["order"] == ["ekf", "srckf", "srukf"]
+    rows = out["rows"]
+    assert rows["ekf"]["rank"] == rows["srckf"]["rank"] == 1 and rows["srukf"]["rank"] == 3
+    assert rows["srckf"]["verdict"] == "equal" and rows["srukf"]["verdict"] == "separated"
+    swapped = rank(Metric("att", "attitude", "arcsec", {"srckf": base, "ekf": base * (1 + 1e-8),
+                                                        "srukf": base * 1.05}))
+    assert swapped["order"] == ["ekf", "srckf", "srukf"] and swapped["best"] == "ekf"
 
 
 def test_runs_a_filter_did_not_finish_are_left_out_of_every_pair():
