@@ -26,7 +26,6 @@ import time
 
 import numpy as np
 
-from estimators import make_filter
 from slam.kinds.attitude.run import (
     STATE,
     initial_belief,
@@ -47,7 +46,7 @@ def cycle_times(world, name: str, repeats: int, seed: int = 0) -> np.ndarray:
     trans = interval_transition(log.samples_per_star, log.dt, fs.arw_rad_sqrt_s,
                                 fs.bias_rw_rad_s_sqrt_s)
     meas = star_measurement(world.star.mode, fs.star_sigma_rad, log.star_refs)
-    flt = make_filter(name)
+    flt = fs.make(name)
     out = []
     for _ in range(repeats):
         belief = flt.init(x0, STATE, cov=P0)

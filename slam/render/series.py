@@ -255,3 +255,51 @@ def map_per_epoch(result: CampaignResult, name: str) -> MapEpochs | None:
     lo, hi = chi2_band(s_count * dof)
     return MapEpochs(rmse, EpochConsistency(value, lo, hi), mean(field("n")),
                      mean(field("trace")))
+
+
+COINCIDE_RTOL = 0.01
+"""Two curves coincide when their largest difference is below this fraction of the
+larger curve's largest magnitude (they then overdraw each other at a figure's scale)."""
+
+
+def coinciding(curves: dict[str, Array | None], rtol: float = COINCIDE_RTOL
+               ) -> list[tuple[str, str, float]]:
+    """Pairs ``(a, b, largest |a - b|)`` of the curves (same epochs: curves of another
+    length are not compared; NaN left out) whose
+    largest difference is below ``rtol`` × the larger of their largest magnitudes, each
+    curve paired with the first curve it coincides with (in the dict's order)."""
+    names = [n for n, c in curves.items() if c is not None and np.isfinite(c).any()]
+    out: list[tuple[str, str, float]] = []
+    used: set[str] = set()
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if b in used:
+                continue
+            ca, cb = np.asarray(curves[a]), np.asarray(curves[b])
+            if ca.shape != cb.shape:  # at other epochs: not the same curve
+                continue
+            ok = np.isfinite(ca) & np.isfinite(cb)
+            if not ok.any():
+                continue
+            diff = float(np.max(np.abs(ca[ok] - cb[ok])))
+            scale = max(float(np.max(np.abs(ca[ok]))), float(np.max(np.abs(cb[ok]))))
+            if diff <= rtol * scale:
+                out.append((a, b, diff))
+                used.add(b)
+    return out
+
+
+def coincidence_note(columns: dict[str, dict[str, Array | None]], units: dict[str, str],
+                     what: str = "curves", rtol: float = COINCIDE_RTOL) -> str:
+    """One sentence naming, pair by pair, the estimators whose curves coincide
+    (:func:`coinciding`) in some of the figure's ``columns`` (column -> estimator -> curve),
+    with the largest difference per column in its unit (``units``); ``""`` when none do.
+    E.g. ``"Overdrawn - run 0's curves that coincide, with their largest difference: ukf
+    and uthinf (east 0.0002 ′, north 0.0005 ′)."``"""
+    pairs: dict[tuple[str, str], list[str]] = {}
+    for col, curves in columns.items():
+        for a, b, d in coinciding(curves, rtol):
+            pairs.setdefault((a, b), []).append(f"{col} {d:.2g} {units.get(col, '')}".rstrip())
+    text = "; ".join(f"{a} and {b} ({', '.join(v)})" for (a, b), v in pairs.items())
+    return (f"Overdrawn - {what} that coincide, with their largest difference: {text}."
+            if text else "")

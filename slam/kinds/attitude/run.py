@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -68,6 +68,7 @@ from nav.observations import direction_measurement, quaternion_measurement
 from nav.quaternion import dcm_to_q
 from nav.spaces import UnitQuaternion
 from slam.failures import run_reference
+from slam.kinds.attitude.decision import decide_attitude
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
 from slam.results import REFERENCE, EstimateSeries, EstimatorRun, RunOutcome
 from slam.scoring import anees_stats, nees_series, per_epoch_anees, scored_runs, timing
@@ -141,12 +142,14 @@ def initial_belief(world, log: AttitudeLog) -> tuple[Array, Array]:
 # --------------------------------------------------------------------------- filtering
 
 def run_filter(log: AttitudeLog, name: str, x0: Array, P0: Array, transition: Transition,
-               measurement: Measurement) -> EstimateSeries:
-    """Run filter ``name`` over the log: update at t = 0, then predict + update per interval
-    (the one filter loop, :func:`estimators.loop.run_epochs`; a numerical failure ends the
-    run as ``diverged`` and later epochs stay NaN)."""
+               measurement: Measurement, settings: Mapping[str, Any] | None = None
+               ) -> EstimateSeries:
+    """Run filter ``name`` (built with ``settings``, the world's stated tuning constants:
+    :meth:`worlds.common.TunedFilters.settings_of`) over the log: update at t = 0, then
+    predict + update per interval (the one filter loop, :func:`estimators.loop.run_epochs`;
+    a numerical failure ends the run as ``diverged`` and later epochs stay NaN)."""
     M = log.n_star
-    flt = make_filter(name)
+    flt = make_filter(name, **(settings or {}))
     means = np.full((M, 7), np.nan)
     covs = np.full((M, 6, 6), np.nan)
     nis = np.full(M, np.nan)
@@ -330,7 +333,8 @@ def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequenc
                                 fs.bias_rw_rad_s_sqrt_s)
     meas = star_measurement(world.star.mode, fs.star_sigma_rad, log.star_refs)
     div = world.scoring.divergence_rad
-    series = [run_filter(log, name, x0, P0, trans, meas) for name in filters]
+    series = [run_filter(log, name, x0, P0, trans, meas, fs.settings_of(name))
+              for name in filters]
     if reference:
         ref, failure = run_reference(smooth_attitude, log, x0, P0, fs.arw_rad_sqrt_s,
                                      fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
@@ -413,7 +417,8 @@ def summarize_scores(scores: list[AttitudeScores], times: Array, steady_from: fl
 
 def summarize_attitude(world, outcomes: list[RunOutcome], filters: list[str], runs: int,
                        seed: int) -> dict:
-    """The ``summary.json`` dict of an attitude campaign."""
+    """The ``summary.json`` dict of an attitude campaign, with the paired ranking of the
+    filters by attitude and bias MSE and the headline (:func:`slam.decision.decide`)."""
     times = np.arange(world.n_star) / world.star.rate_hz
     steady_from = world.scoring.steady_state_from_s
     conv = world.scoring.report_convergence
@@ -432,7 +437,7 @@ def summarize_attitude(world, outcomes: list[RunOutcome], filters: list[str], ru
         ref["marginals_time_s"] = (float(np.mean([s.extra_time_s for s in good]))
                                    if good else None)
         reference = {REFERENCE: ref}
-    return {
+    summary: dict[str, Any] = {
         "world": world.name,
         "kind": world.kind,
         "runs": runs,
@@ -449,3 +454,4 @@ def summarize_attitude(world, outcomes: list[RunOutcome], filters: list[str], ru
                        "(deg/h)/sqrt(h)"),
         "paper": world.paper,
     }
+    return decide_attitude(world, outcomes, filters, summary)

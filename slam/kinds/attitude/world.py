@@ -17,7 +17,9 @@ radians on load; the dataclasses name their SI units.  File layout::
                    directions (optional nav-frame reference star directions, vector mode)
     [filters]      names, initial_error_deg = [roll, pitch, yaw], initial_attitude_var_deg2,
                    initial_bias_var_deg_h2, arw_deg_sqrt_h, bias_rw_deg_h_sqrt_h,
-                   star_sigma_arcsec (the noises the filters and the smoother assume)
+                   star_sigma_arcsec (the noises the filters and the smoother assume);
+                   [filters.unscented] / [filters.central_difference] (the SRUKF's α, β, κ
+                   and the SRCDKF's h, required when those filters run: worlds.common)
     [scoring]      steady_state_from_s, report_convergence, divergence_deg
     [paper]        free-form: the paper's reported numbers, passed through to summary.json
 
@@ -124,8 +126,8 @@ class StarSensorSpec:
 
 
 @dataclass(frozen=True)
-class AttitudeFilterSpec(wc.JointOnly):
-    """Filters to run and what they (and the smoother) assume.
+class AttitudeFilterSpec(wc.JointOnly, wc.TunedFilters):
+    """Filters to run, their settings tables, and what they (and the smoother) assume.
 
     ``initial_error_rad``: the estimate starts at the truth's Z-X-Y Euler angles plus this
     ``[roll, pitch, yaw]`` error; the bias estimate starts at zero.  Variances are in
@@ -219,6 +221,7 @@ WORLD = wc.world(KIND, AttitudeWorld, {
             .to("bias_rw_rad_s_sqrt_s"),
             "star_sigma_arcsec": ws.Sigma(ws.positive(36_000.0), scale=ARCSEC)
             .to("star_sigma_rad"),
+            **wc.settings_tables(),
         },
         into=AttitudeFilterSpec,
     ),
@@ -274,6 +277,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
     ws.check_rules(RULES, v, root)
+    wc.check_settings(v["filters"], v["filters"]["names"], root.child("filters"))
     dirs = _directions(v["star_sensor"], root.child("star_sensor.directions"))
     return ws.build(WORLD, v, name=name, source=source,
                     star=ws.build(SCHEMA["star_sensor"], v["star_sensor"], directions=dirs))

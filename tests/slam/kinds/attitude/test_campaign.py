@@ -53,7 +53,10 @@ def test_small_campaign_end_to_end(attitude_result) -> None:
     table = REPORT.markdown(s)
     assert "srckf" in table and "Paper's Table 2" in table and "ekf (MEKF)" in table
     titles = [sec.title for sec in REPORT.sections(s)]
-    assert titles[:2] == ["Results", "Convergence"] and "How to read this" in titles
+    assert titles[0] == "Decision" and titles[1].startswith("Ranking: attitude")
+    assert titles[2].startswith("Ranking: gyro bias")
+    assert titles[3:7] == ["The paper's ordering, tested", "Filter settings", "Results",
+                           "Convergence"] and titles[-1] == "How to read this"
     assert set(REPORT.figures()) == {spec.name for spec in figure_specs()}
     text = REPORT.text_table(s)
     assert "srckf" in text and "(deg/h)" in text
