@@ -96,13 +96,15 @@ def table1(good: list[FwScores]) -> dict[str, float | None]:
     return out
 
 
-def turn_split(good: list[FwScores]) -> dict[str, dict[str, float | None]]:
+def turn_split(good: list[FwScores]) -> dict[str, dict[str, Any]]:
     """RMS roll / pitch / heading error (deg) in turns, accelerating outside turns and in
-    steady flight."""
+    steady flight, each with ``epochs``: the estimator's epochs in the segment (per run;
+    the RMS is ``None`` when it is 0, see :mod:`slam.nulls`)."""
     att = np.stack([s.err_att for s in good]) / DEG
     masks = {"turns": good[0].turn, "accelerating": good[0].accel,
              "steady": ~good[0].turn & ~good[0].accel}
-    return {seg: {a: _rms(att[:, mask, i]) for i, a in enumerate(AXES)}
+    return {seg: {**{a: _rms(att[:, mask, i]) for i, a in enumerate(AXES)},
+                  "epochs": int(np.sum(mask))}
             for seg, mask in masks.items()}
 
 
