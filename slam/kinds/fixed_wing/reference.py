@@ -35,6 +35,7 @@ from gtsam.symbol_shorthand import B, V, X
 
 from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q
+from slam.failures import reason
 from slam.kinds.fixed_wing.simulate import FixedWingLog
 
 Array = np.ndarray
@@ -125,24 +126,32 @@ def _solve(log: FixedWingLog, x0: Array, P0: Array
     return graph, gtsam.LevenbergMarquardtOptimizer(graph, isam.calculateEstimate(), lm).optimize()
 
 
-def smooth(log: FixedWingLog, x0: Array, P0: Array) -> tuple[Array, Array, float]:
-    """``(means (G, 19), covs (G, 9, 9), solve time)``: the smoothed INS states at the INS
-    filters' epochs (drifts: GTSAM's bias, gyro as the constant part) and their
-    ``[δp, δv, δθ]`` marginals."""
+def smooth(log: FixedWingLog, x0: Array, P0: Array
+           ) -> tuple[Array, Array, float, str | None]:
+    """``(means (G, 19), covs (G, 9, 9), solve time, note)``: the smoothed INS states at the
+    INS filters' epochs (drifts: GTSAM's bias, gyro as the constant part) and their
+    ``[δp, δv, δθ]`` marginals; when GTSAM cannot factor the marginals (measured: fixes
+    100 s apart with 1 s states) the covariances are NaN and ``note`` says why (counted in
+    the summary as ``no_covariance_runs``), the estimate is kept."""
     t0 = time.perf_counter()
     graph, values = _solve(log, x0, P0)
     solve_s = time.perf_counter() - t0
     G = log.ins_epochs
     means, covs = np.zeros((G, 19)), np.full((G, 9, 9), np.nan)
-    marg = gtsam.Marginals(graph, values)
+    try:
+        marg, note = gtsam.Marginals(graph, values), None
+    except RuntimeError as exc:
+        marg, note = None, f"marginals: {reason(exc)}"
     for e in range(G):
         pose = values.atPose3(X(e))
         R = pose.rotation().matrix()
         bias = values.atConstantBias(B(e)).vector()
         means[e] = np.concatenate([pose.translation(), values.atVector(V(e)), dcm_to_q(R),
                                    bias[3:], np.zeros(3), bias[:3]])
+        if marg is None:
+            continue
         S = marg.jointMarginalCovariance([X(e), V(e)]).fullMatrix()  # [rot, trans, vel]
         T = np.zeros((9, 9))
         T[0:3, 3:6], T[3:6, 6:9], T[6:9, 0:3] = R, np.eye(3), np.eye(3)
         covs[e] = T @ S @ T.T
-    return means, covs, solve_s
+    return means, covs, solve_s, note

@@ -214,6 +214,17 @@ HOW_TO_READ = (
     "(tests), so its optimistic verdict here is that model mismatch. ")
 
 
+def covariance_note(s: dict[str, Any]) -> str:
+    """The runs whose smoother marginals GTSAM could not factor (no smoother NEES there)."""
+    ref = (s.get("reference") or {}).get(REFERENCE) or {}
+    n = ref.get("no_covariance_runs")
+    if not n:
+        return ""
+    return (f"The smoother's marginal covariances failed on {n} run(s) "
+            f"({'; '.join(ref.get('no_covariance_reasons') or [])}): its errors are scored, "
+            "its NEES is not.")
+
+
 def sections(s: dict[str, Any]) -> list[Section]:
     """The report's sections (module docstring)."""
     paper = s.get("paper") or {}
@@ -224,7 +235,8 @@ def sections(s: dict[str, Any]) -> list[Section]:
         Section("Turns and accelerations: gravity from the accelerometer", TURN_HEADER,
                 turn_rows(s),
                 " ".join(t for t in (turn_verdict(s), segment_note(s)) if t)),
-        Section("How to read this", text=HOW_TO_READ + " ".join(failure_notes(s))),
+        Section("How to read this",
+                text=HOW_TO_READ + " ".join([*failure_notes(s), covariance_note(s)])),
     ]
 
 
@@ -234,7 +246,7 @@ def text_table(s: dict[str, Any]) -> str:
     rows = [[r[0], r[1], r[2], r[3], r[5], r[6], r[7], r[9], r[10]] for r in RESULTS.rows(s)]
     res = plain_table(["estimator", "roll°", "pitch°", "head°", "ANEES [band]", "in band",
                        "verdict", "ms/cyc", "div"], rows)
-    notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s)]
+    notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s), covariance_note(s)]
     return "\n".join([t1, "", res, "(RMSE in degrees over all epochs and runs)",
                       *[wrap(n) for n in notes if n]])
 

@@ -165,7 +165,8 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
 
 
 def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Array,
-               time_s: float, cycles: int, diverged: bool, failure: str | None) -> FwScores:
+               time_s: float, cycles: int, diverged: bool, failure: str | None,
+               note: str | None = None) -> FwScores:
     """Scores of an INS-state series ``means`` (G, 19), ``covs`` (G, ≥9, ≥9) at the
     epochs of the GNSS-aided estimators (the INS filters and the smoother; ``log.n_ins``
     samples apart)."""
@@ -177,7 +178,7 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
     nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
     div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)
     return FwScores(name, samples * log.dt, err, sig, ep, ev, *segment_masks(log.world, samples),
-                    nees, 9, cycles, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
+                    nees, 9, cycles, note, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
                     failure=why)
 
 
@@ -190,9 +191,9 @@ def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:
         nan = np.full((G, 19), np.nan)
         return nav_scores(log, REFERENCE, nan, np.full((G, 9, 9), np.nan), np.zeros(0), 0.0,
                           G - 1, True, failure)
-    means, covs, time_s = est
+    means, covs, time_s, note = est
     return nav_scores(log, REFERENCE, means, covs, np.zeros(0), time_s, means.shape[0] - 1,
-                      False, None)
+                      False, None, note)
 
 
 def run_once(world: FixedWingWorld, run: int, seed_seq: np.random.SeedSequence,

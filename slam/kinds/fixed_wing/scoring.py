@@ -37,7 +37,8 @@ class FwScores(EstimatorRun):
 
     err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
     turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
-    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    cycles : predict + update cycles; note : why the covariance is missing (the smoother's
+    marginals), if it is.  The :class:`~slam.results.EstimatorRun` fields:
     nis per update (``nis_dof`` each); time_s over the ``cycles`` (smoother: its solve).
     """
 
@@ -52,6 +53,7 @@ class FwScores(EstimatorRun):
     nees: Array
     nees_dof: int
     cycles: int
+    note: str | None = None
 
 
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:
@@ -123,6 +125,10 @@ def summarize_scores(scores: list[FwScores]) -> dict[str, Any]:
     good, out = scored_runs(scores)
     if not good:
         return out
+    notes = [s.note for s in good if s.note]
+    if notes:
+        out["no_covariance_runs"] = len(notes)
+        out["no_covariance_reasons"] = sorted(set(notes))
     att = np.stack([s.err_att for s in good]) / DEG
     out["att_rmse_deg"] = {a: _rms(att[..., i]) for i, a in enumerate(AXES)}
     out["table1"] = table1(good)

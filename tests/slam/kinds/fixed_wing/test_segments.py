@@ -68,3 +68,25 @@ def test_fixes_at_least_once_a_second_are_the_ins_epochs() -> None:
                        np.random.default_rng(0))
         assert log.n_ins == log.n_gnss and log.fix_every == 1
         assert log.ins_epochs == log.gnss_p.shape[0]
+
+
+def test_smoother_marginals_that_fail_keep_its_estimate_and_say_why(monkeypatch) -> None:
+    """Fixes 100 s apart with 1 s states made GTSAM's marginals fail ("Indeterminate linear
+    system", bundled flight at 0.01 Hz) although the solve succeeds: the estimate is scored,
+    the NEES is not, and the summary and the report count it."""
+    import slam.kinds.fixed_wing.reference as ref
+
+    def refuse(*_args):
+        raise RuntimeError("Indeterminate linear system detected near x3.\n\nThrown when ...")
+
+    monkeypatch.setattr(ref.gtsam, "Marginals", refuse)
+    s = jsonable(run_campaign(turn_between_fixes(**{"filters.names": ["ins-ekf"]}),
+                              workers=1).summary)
+    g = s["reference"]["gtsam"]
+    assert g["diverged_runs"] == 0 and g["no_covariance_runs"] == 1
+    assert g["no_covariance_reasons"] == [
+        "marginals: RuntimeError: Indeterminate linear system detected near x3."]
+    assert g["att_rmse_deg"]["roll"] > 0.0 and "anees" not in g
+    assert g["turn_split_rmse_deg"]["turns"]["epochs"] == 3
+    assert "The smoother's marginal covariances failed on 1 run(s)" in REPORT.markdown(s)
+    assert unexplained_nulls(s) == []
