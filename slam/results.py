@@ -115,7 +115,8 @@ class RunOutcome:
 class CampaignResult:
     """A whole campaign: the world's identity, the runs, and the summary dict.
 
-    ``summary`` follows the ``summary.json`` contract (see DESIGN / README);
+    ``summary`` follows the ``summary.json`` contract (see DESIGN / README): no null
+    without its reason beside it (:mod:`slam.nulls`);
     ``outcomes`` keeps every run's :class:`RunScores` for plots (errors vs time).
     """
 

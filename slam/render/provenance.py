@@ -4,7 +4,7 @@ what.  :func:`provenance` builds the ``provenance`` block of ``summary.json``;
 :func:`version_text` is what ``slam --version`` prints.
 
 Every item is best effort: a missing git, an unreadable world file or an uninstalled
-distribution leaves that item ``None``, never an error.
+distribution leaves that item ``None`` with its ``<key>_reason`` beside it, never an error.
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ def provenance(*, argv: Sequence[str] | None = None, source: str | None = None,
         argv[0] = os.path.basename(argv[0])
     commit, dirty = git_commit()
     started = started or (dt.datetime.now(dt.UTC) - dt.timedelta(seconds=wall_time_s or 0.0))
-    return {
+    block = {
         "package": DISTRIBUTION,
         "version": package_version(),
         "git_commit": commit,
@@ -107,6 +107,25 @@ def provenance(*, argv: Sequence[str] | None = None, source: str | None = None,
         "platform": platform.platform(terse=True),
         "libraries": {name: package_version(name) for name in LIBRARIES},
     }
+    return {**block, **_reasons(block)}
+
+
+def _reasons(block: dict[str, Any]) -> dict[str, str]:
+    """``<key>_reason`` for each item left ``None`` (:mod:`slam.nulls`)."""
+    why = {"version": f"{DISTRIBUTION} is not installed as a distribution",
+           "git_commit": "no git work tree (or no git) at the source",
+           "git_dirty": "no git work tree (or no git) at the source",
+           "world_file": "the world was not read from a file",
+           "world_sha256": ("no world file" if block["world_file"] is None
+                            else "the world file cannot be read"),
+           "seed": "not given", "runs": "not given", "wall_time_s": "not measured",
+           "workers": "the runs went to the Dask scheduler",
+           "scheduler": "the runs went to the local process pool (workers)"}
+    out = {f"{k}_reason": v for k, v in why.items() if block.get(k) is None}
+    missing = [n for n, v in block["libraries"].items() if v is None]
+    if missing:
+        out["libraries_reason"] = f"not installed: {', '.join(missing)}"
+    return out
 
 
 def version_text() -> str:

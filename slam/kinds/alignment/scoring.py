@@ -20,7 +20,6 @@ azimuth where the east gyro drift is balanced by the Earth rate it must sense,
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,10 +59,13 @@ class AlignScores(EstimatorRun):
     note: str | None = None
 
 
-def _quiet(fn: Any, *a: Any, **kw: Any) -> Any:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return fn(*a, **kw)
+def finite_mean(x: Array, axis: int | tuple[int, ...] | None = None) -> Array:
+    """Mean of the finite values of ``x`` along ``axis``; NaN where there is none (what
+    ``np.nanmean`` gives, without its empty-slice warning)."""
+    ok = np.isfinite(x)
+    count = ok.sum(axis=axis)
+    total = np.where(ok, x, 0.0).sum(axis=axis)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def settle_time(rms: Array, times: Array, factor: float) -> float | None:
@@ -85,35 +87,41 @@ def _per_axis(v: Array) -> dict[str, float]:
 
 
 def _windows(rms_sq: Array, times: Array, n: int = 4) -> dict[str, Any]:
-    """RMS per axis (arcmin) over ``n`` equal windows of the run."""
+    """RMS per axis (arcmin) over ``n`` equal windows of the run, with ``epochs``: the
+    epochs with an estimate in each window (``None`` where it is 0, :mod:`slam.nulls`)."""
     edges = np.linspace(times[0], times[-1], n + 1)
+    sels = [(times > a) & (times <= b) for a, b in zip(edges[:-1], edges[1:])]
     out: dict[str, Any] = {"windows_s": [[float(a), float(b)] for a, b in
-                                         zip(edges[:-1], edges[1:])]}
+                                         zip(edges[:-1], edges[1:])],
+                           "epochs": [int(np.all(np.isfinite(rms_sq[sel]), axis=1).sum())
+                                      for sel in sels]}
     for i, axis in enumerate(AXES):
-        vals = []
-        for a, b in zip(edges[:-1], edges[1:]):
-            sel = (times > a) & (times <= b)
-            vals.append(float(np.sqrt(_quiet(np.nanmean, rms_sq[sel, i])) / ARCMIN))
-        out[axis] = vals
+        out[axis] = [float(np.sqrt(finite_mean(rms_sq[sel, i])) / ARCMIN) for sel in sels]
     return out
 
 
 def error_stats(e: Array, times: Array, factor: float) -> dict[str, Any]:
     """Error statistics (arcmin, s) of stacked errors ``e`` (R, M, 3)."""
-    rms_sq = _quiet(np.nanmean, e**2, axis=0)  # (M, 3)
+    rms_sq = finite_mean(e**2, axis=0)  # (M, 3)
     rms = np.sqrt(rms_sq)
     ok = np.all(np.isfinite(rms), axis=1)
     last = int(np.flatnonzero(ok)[-1])
     final = np.abs(e[:, last])
     half = ok & (times >= times[-1] / 2)
-    slope = np.polyfit(times[half], rms[half, 0], 1)[0] if half.sum() > 2 else np.nan
+    slope = np.polyfit(times[half], rms[half, 0], 1)[0] if half.sum() > 2 else None
+    trend = {"east_trend_arcmin_per_100s": None if slope is None
+             else float(slope * 100.0 / ARCMIN)}
+    if slope is None:
+        trend["east_trend_arcmin_per_100s_reason"] = (
+            f"{int(half.sum())} epochs with an estimate in the second half of the run; the "
+            "trend needs 3")
     return {
         "final_rms_arcmin": _per_axis(rms[last]),
         "final_mean_abs_arcmin": _per_axis(np.mean(final, axis=0)),
         "settle_s": {a: settle_time(rms[:, i], times, factor) for i, a in enumerate(AXES)},
         "rms_window_arcmin": _windows(rms_sq, times),
-        "east_trend_arcmin_per_100s": float(slope * 100.0 / ARCMIN),
-        "rms_whole_arcmin": _per_axis(np.sqrt(_quiet(np.nanmean, rms_sq, axis=0))),
+        **trend,
+        "rms_whole_arcmin": _per_axis(np.sqrt(finite_mean(rms_sq, axis=0))),
     }
 
 
@@ -152,6 +160,9 @@ def limits(world: AlignmentWorld) -> dict[str, Any]:
     drift = math.hypot(m.gyro_bias_rad_s, m.gyro_markov_rad_s)
     horizontal = EARTH_RATE * math.cos(world.site.latitude_rad)
     ratio = drift / horizontal
+    unobservable = {} if ratio < 1.0 else {"azimuth_limit_deg_reason": (
+        f"the gyro drift ({drift / DEG_H:.3g} °/h) is not below the horizontal Earth rate "
+        f"({horizontal / DEG_H:.3g} °/h): azimuth is not observable by gyrocompassing")}
     return {
         "accel_bias_sigma_g": accel / G0,
         "tilt_limit_arcmin": accel / G0 / ARCMIN,
@@ -159,5 +170,6 @@ def limits(world: AlignmentWorld) -> dict[str, Any]:
         "earth_rate_horizontal_deg_h": horizontal / DEG_H,
         "drift_over_earth_rate": ratio,
         "azimuth_limit_deg": math.degrees(math.asin(ratio)) if ratio < 1.0 else None,
+        **unobservable,
         "azimuth_observable": ratio < 1.0,
     }

@@ -412,6 +412,10 @@ def summarize_scores(scores: list[AttitudeScores], times: Array, steady_from: fl
         out["converge_below_1arcmin_s"] = float(np.median(tc[ok])) if ok.any() else None
         out["converge_below_1arcmin_max_s"] = float(np.max(tc[ok])) if ok.any() else None
         out["never_below_1arcmin_runs"] = int((~ok).sum())
+        if not ok.any():
+            why = f"no run stays below 1′ to the end (never_below_1arcmin_runs = {len(tc)})"
+            out["converge_below_1arcmin_s_reason"] = why
+            out["converge_below_1arcmin_max_s_reason"] = why
     return out
 
 

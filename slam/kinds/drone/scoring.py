@@ -137,6 +137,23 @@ def _loop_masks(times: Array, loop_end_times: Sequence[float]) -> list[Array]:
     return out
 
 
+def _per_loop(norm: Array, loops: list[Array]) -> dict[str, Any]:
+    """Position error RMS and largest error (m) per lap from the error norms (R, E), with
+    ``loop_epochs`` (the epochs of each lap); a lap with no finite error gets ``None`` and
+    the reason (``loop_pos_rmse_m_reason``; a world's laps are checked to hold an epoch
+    when its truth is flown, :func:`slam.kinds.drone.truth.empty_lap`)."""
+    values = [norm[:, m][np.isfinite(norm[:, m])] for m in loops]
+    out: dict[str, Any] = {
+        "loop_epochs": [int(m.sum()) for m in loops],
+        "loop_pos_rmse_m": [float(np.sqrt(np.mean(v**2))) if v.size else None for v in values],
+        "loop_pos_max_err_m": [float(np.max(v)) if v.size else None for v in values]}
+    empty = [i + 1 for i, v in enumerate(values) if not v.size]
+    if empty:
+        why = f"no finite position error in lap(s) {empty} (loop_epochs)"
+        out["loop_pos_rmse_m_reason"] = out["loop_pos_max_err_m_reason"] = why
+    return out
+
+
 def summarize_scores(scores: list[DroneScores], times: Array | None = None,
                      loop_end_times: Sequence[float] = ()) -> dict[str, Any]:
     """Monte Carlo summary of one estimator (a ``summary.json`` entry).
@@ -160,10 +177,8 @@ def summarize_scores(scores: list[DroneScores], times: Array | None = None,
                            for i, a in enumerate(ATT_AXES)}
     out["heading_rmse_deg"] = out["att_rmse_deg"]["yaw"]
     if times is not None and len(loop_end_times) > 1:
-        norm = np.linalg.norm(ep, axis=2)
-        loops = _loop_masks(np.asarray(times), loop_end_times)
-        out["loop_pos_rmse_m"] = [float(np.sqrt(np.nanmean(norm[:, m] ** 2))) for m in loops]
-        out["loop_pos_max_err_m"] = [float(np.nanmax(norm[:, m])) for m in loops]
+        out.update(_per_loop(np.linalg.norm(ep, axis=2),
+                             _loop_masks(np.asarray(times), loop_end_times)))
     lm = np.concatenate([s.lm_err for s in good])
     if lm.size:
         out["landmark_rmse_m"] = float(np.sqrt(np.mean(lm**2)))

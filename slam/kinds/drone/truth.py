@@ -137,6 +137,30 @@ def truth_of(world) -> tuple[Trajectory, Array]:
                          f"the flight ends after {traj.n_samples} IMU samples, before the "
                          "first sensor epoch; are the waypoints all within at_waypoint_m "
                          "of the start?")
+    if msg := empty_lap(traj, world.samples_per_epoch, world.imu.dt_s * world.samples_per_epoch):
+        raise WorldError(world.source or world.name, "map.waypoints", msg)
     return traj, lms
+
+
+def lap_epochs(loop_end_steps: Array, samples_per_epoch: int, n_samples: int) -> Array:
+    """Sensor epochs in each lap: the epochs at IMU samples ``k · samples_per_epoch`` with
+    ``end[i-1] < k · n <= end[i]`` (epoch 0, the prior, in lap 1)."""
+    steps = np.arange(n_samples // samples_per_epoch + 1) * samples_per_epoch
+    lap = np.searchsorted(np.asarray(loop_end_steps), steps, side="left")
+    return np.bincount(lap, minlength=len(loop_end_steps))[: len(loop_end_steps)]
+
+
+def empty_lap(traj: Trajectory, samples_per_epoch: int, period_s: float) -> str | None:
+    """Why the flight is not ``loops`` laps (a lap with no sensor epoch: the per-lap errors
+    of the summary would have nothing to average), or ``None``."""
+    ends = np.asarray(traj.loop_end_steps)
+    counts = lap_epochs(ends, samples_per_epoch, traj.n_samples)
+    if counts.size and counts.min() > 0:
+        return None
+    i = int(np.argmin(counts))
+    lasts = float(ends[i] - (ends[i - 1] if i else 0)) * traj.dt
+    return (f"lap {i + 1} of {len(ends)} lasts {lasts:.3g} s and holds no sensor epoch "
+            f"(period {period_s:g} s): a lap of the waypoints must take at least one sensor "
+            "period (are they all within at_waypoint_m of each other?)")
 
 

@@ -1,6 +1,8 @@
 r"""The batch yardstick for the fixed-wing INS/GNSS runs: a GTSAM factor-graph smoother.
 
-Per GNSS epoch ``e`` a ``Pose3`` ``X(e)``, a velocity ``V(e)`` and an IMU bias ``B(e)``
+Per epoch ``e`` of the INS filters (every GNSS fix; between fixes more than a second
+apart, also at the epochs that cut the GNSS period: ``log.n_ins``) a ``Pose3`` ``X(e)``,
+a velocity ``V(e)`` and an IMU bias ``B(e)``
 (``imuBias.ConstantBias``, GTSAM's order ``[accelerometer, gyro]``), with
 
 - priors on ``X(0)``, ``V(0)``, ``B(0)`` equal to the INS filters' initial belief (the
@@ -13,7 +15,8 @@ Per GNSS epoch ``e`` a ``Pose3`` ``X(e)``, a velocity ``V(e)`` and an IMU bias `
   times of minutes the two agree; GTSAM has no first-order Markov bias), ENU gravity
   (``MakeSharedU``), ``setOmegaCoriolis`` when the world has Earth rate;
 - a ``GPSFactor`` per fix (position, σ horizontal/vertical) and a ``PriorFactorVector``
-  on ``V(e)`` for the GNSS velocity (the "prior on the velocity key" reading).
+  on ``V(e)`` for the GNSS velocity (the "prior on the velocity key" reading), at the
+  epochs of the fixes.
 
 Solving as for the drone (:mod:`slam.kinds.drone.reference`): iSAM2 fed in batches, each
 new state predicted from the current estimate by the preintegrated measurement (dead
@@ -32,6 +35,7 @@ from gtsam.symbol_shorthand import B, V, X
 
 from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q
+from slam.failures import reason
 from slam.kinds.fixed_wing.simulate import FixedWingLog
 
 Array = np.ndarray
@@ -72,12 +76,16 @@ def _priors(x0: Array, P0: Array) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Val
 
 
 def _gnss_factors(log: FixedWingLog, e: int, graph: gtsam.NonlinearFactorGraph) -> None:
+    """The fix of epoch ``e`` (none between fixes)."""
+    if e % log.fix_every:
+        return
+    i = e // log.fix_every
     gn = log.world.gnss
     pos_noise = gtsam.noiseModel.Diagonal.Sigmas(
         np.array([gn.horizontal_sigma_m, gn.horizontal_sigma_m, gn.vertical_sigma_m]))
     vel_noise = gtsam.noiseModel.Isotropic.Sigma(3, gn.velocity_sigma_mps)
-    graph.add(gtsam.GPSFactor(X(e), np.asarray(log.gnss_p[e], float), pos_noise))
-    graph.add(gtsam.PriorFactorVector(V(e), np.asarray(log.gnss_v[e], float), vel_noise))
+    graph.add(gtsam.GPSFactor(X(e), np.asarray(log.gnss_p[i], float), pos_noise))
+    graph.add(gtsam.PriorFactorVector(V(e), np.asarray(log.gnss_v[i], float), vel_noise))
 
 
 def _solve(log: FixedWingLog, x0: Array, P0: Array
@@ -91,7 +99,7 @@ def _solve(log: FixedWingLog, x0: Array, P0: Array
     isam = gtsam.ISAM2(isam_params)
     isam.update(graph, vals)
     state = (vals.atPose3(X(0)), vals.atVector(V(0)), vals.atConstantBias(B(0)))
-    n, G = log.n_gnss, log.gnss_p.shape[0]
+    n, G = log.n_ins, log.ins_epochs
     new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
     for e in range(1, G):
         pim = gtsam.PreintegratedCombinedMeasurements(prm, state[2])
@@ -118,24 +126,32 @@ def _solve(log: FixedWingLog, x0: Array, P0: Array
     return graph, gtsam.LevenbergMarquardtOptimizer(graph, isam.calculateEstimate(), lm).optimize()
 
 
-def smooth(log: FixedWingLog, x0: Array, P0: Array) -> tuple[Array, Array, float]:
-    """``(means (G, 19), covs (G, 9, 9), solve time)``: the smoothed INS states at the GNSS
-    epochs (drifts: GTSAM's bias, gyro as the constant part) and their ``[δp, δv, δθ]``
-    marginals."""
+def smooth(log: FixedWingLog, x0: Array, P0: Array
+           ) -> tuple[Array, Array, float, str | None]:
+    """``(means (G, 19), covs (G, 9, 9), solve time, note)``: the smoothed INS states at the
+    INS filters' epochs (drifts: GTSAM's bias, gyro as the constant part) and their
+    ``[δp, δv, δθ]`` marginals; when GTSAM cannot factor the marginals (measured: fixes
+    100 s apart with 1 s states) the covariances are NaN and ``note`` says why (counted in
+    the summary as ``no_covariance_runs``), the estimate is kept."""
     t0 = time.perf_counter()
     graph, values = _solve(log, x0, P0)
     solve_s = time.perf_counter() - t0
-    G = log.gnss_p.shape[0]
+    G = log.ins_epochs
     means, covs = np.zeros((G, 19)), np.full((G, 9, 9), np.nan)
-    marg = gtsam.Marginals(graph, values)
+    try:
+        marg, note = gtsam.Marginals(graph, values), None
+    except RuntimeError as exc:
+        marg, note = None, f"marginals: {reason(exc)}"
     for e in range(G):
         pose = values.atPose3(X(e))
         R = pose.rotation().matrix()
         bias = values.atConstantBias(B(e)).vector()
         means[e] = np.concatenate([pose.translation(), values.atVector(V(e)), dcm_to_q(R),
                                    bias[3:], np.zeros(3), bias[:3]])
+        if marg is None:
+            continue
         S = marg.jointMarginalCovariance([X(e), V(e)]).fullMatrix()  # [rot, trans, vel]
         T = np.zeros((9, 9))
         T[0:3, 3:6], T[3:6, 6:9], T[6:9, 0:3] = R, np.eye(3), np.eye(3)
         covs[e] = T @ S @ T.T
-    return means, covs, solve_s
+    return means, covs, solve_s, note

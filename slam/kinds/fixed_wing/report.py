@@ -93,35 +93,65 @@ def turn_rows(s: dict[str, Any]) -> list[list[str]]:
     return rows
 
 
+def segment_note(s: dict[str, Any]) -> str:
+    """The epochs behind each segment's RMS, per estimator family (EA filters at the
+    accelerometer/magnetometer epochs, the GNSS-aided ones at theirs)."""
+    seen: dict[tuple, list[str]] = {}
+    for name, e in estimator_entries(s):
+        sp = e.get("turn_split_rmse_deg") or {}
+        counts = tuple((sp.get(seg) or {}).get("epochs") for seg, _ in SEGMENTS)
+        if any(c is not None for c in counts):
+            seen.setdefault(counts, []).append(name)
+    if not seen:
+        return ""
+    parts = [f"{', '.join(names)}: " + " / ".join(MISSING if c is None else str(c)
+                                                 for c in counts)
+             for counts, names in seen.items()]
+    empty = any(c == 0 for counts in seen for c in counts)
+    return ("Epochs per run in turns / accelerating / steady: " + "; ".join(parts) + "."
+            + (" A segment with no epoch has no RMS (—)." if empty else ""))
+
+
 def _ratio(a: Any, b: Any) -> str:
     ok = all(isinstance(v, int | float) and v > 0 for v in (a, b))
     return f"{a / b:.1f}×" if ok else MISSING
 
 
 def turn_verdict(s: dict[str, Any]) -> str:
-    """Per EA filter, in words: the roll/pitch RMS in turns against straight flight and
-    against the gravity rule's own error (the prediction)."""
-    acc = ((s.get("accelerometer_angle_error_deg") or {}).get("turns") or {}).get("roll") or {}
+    """Per EA filter, in words: the roll RMS in turns and the pitch RMS while accelerating
+    against steady flight and against the gravity rule's own error (the prediction); a
+    segment without epochs is said to be empty instead."""
+    acc = s.get("accelerometer_angle_error_deg") or {}
+    has = {seg: (acc.get(seg) or {}).get("epochs") != 0 for seg in ("turns", "accelerating")}
+    if acc and not any(has.values()):
+        return ("Gravity from the accelerometer: the flight has no epoch in a turn or "
+                "accelerating (epochs 0), so there is nothing to split.")
     parts = []
     for name, e in estimator_entries(s):
         if not name.startswith("ea-"):
             continue
         sp = e.get("turn_split_rmse_deg") or {}
-        rt, rs = (sp.get("turns") or {}).get("roll"), (sp.get("steady") or {}).get("roll")
-        pa, ps = ((sp.get("accelerating") or {}).get("pitch"),
-                  (sp.get("steady") or {}).get("pitch"))
-        parts.append(f"{name}: roll RMS {num(rt, '.2f')}° in turns vs {num(rs, '.2f')}° in "
-                     f"steady flight ({_ratio(rt, rs)}), pitch {num(pa, '.2f')}° accelerating "
-                     f"vs {num(ps, '.2f')}° steady ({_ratio(pa, ps)})")
+        steady = sp.get("steady") or {}
+        said = [f"{what} RMS {num(v, '.2f')}° {where} vs {num(steady.get(axis), '.2f')}° "
+                f"steady ({_ratio(v, steady.get(axis))})"
+                for seg, axis, what, where in (("turns", "roll", "roll", "in turns"),
+                                               ("accelerating", "pitch", "pitch",
+                                                "accelerating"))
+                if has[seg] for v in [(sp.get(seg) or {}).get(axis)]]
+        parts.append(f"{name}: " + ", ".join(said))
     if not parts:
         return ""
-    pitch = (((s.get("accelerometer_angle_error_deg") or {}).get("accelerating") or {})
-             .get("pitch") or {})
+    rule = [f"{num(r.get('rms'), '.2f')}° RMS (max {num(r.get('max'), '.2f')}°) in {axis} "
+            f"{where}" for seg, axis, where in (("turns", "roll", "during turns"),
+                                               ("accelerating", "pitch", "while accelerating"))
+            if has[seg] for r in [((acc.get(seg) or {}).get(axis) or {})]]
+    empty = [seg for seg, ok in has.items() if not ok]
     return ("Gravity from the accelerometer: " + "; ".join(parts) + ". The gravity rule "
-            f"alone, on error-free readings, is off by {num(acc.get('rms'), '.2f')}° RMS "
-            f"(max {num(acc.get('max'), '.2f')}°) in roll during turns and by "
-            f"{num(pitch.get('rms'), '.2f')}° RMS (max {num(pitch.get('max'), '.2f')}°) in pitch "
-            "while accelerating.")
+            "alone, on error-free readings, is off by " + " and by ".join(rule) + "."
+            + (f" No epoch {' or '.join(WHERE[seg] for seg in empty)}." if empty else ""))
+
+
+WHERE = {"turns": "in a turn", "accelerating": "accelerating outside turns"}
 
 
 def paper_verdict(s: dict[str, Any]) -> str:
@@ -172,14 +202,27 @@ HOW_TO_READ = (
     "The EA filters carry no position; their heading is from the magnetometer. "
     "RMSE are over all epochs and runs. ms/cycle: wall-clock per predict + update cycle "
     "inside the campaign's workers (EA cycles are one accelerometer/magnetometer epoch, INS "
-    "cycles one GNSS second of IMU samples). The gravity rule's pitch is right in turns (a "
-    "coordinated turn keeps the specific force in the body's x-z plane), so the EA filters' "
-    "pitch error there comes through the filter - our reading: the roll error and the bias "
-    "estimates that absorbed the roll-measurement error enter the Euler-rate kinematics "
-    "(θ̇ = q cos φ − r sin φ with the turn rate r). The smoother's bias is GTSAM's random walk "
-    "while the simulated drifts are first-order Markov (T_a, T_b in the world file); with "
-    "correlation times far beyond the run it passes a χ² NEES test (tests), so its "
-    "optimistic verdict here is that model mismatch. ")
+    "cycles one GNSS period of IMU samples, cut at whole fractions of it not above 1 s when "
+    "fixes come less than once a second; the INS filters and the smoother are scored at "
+    "those epochs, predictions between fixes included). The gravity rule's pitch is right "
+    "in turns (a coordinated turn keeps the specific force in the body's x-z plane), so the "
+    "EA filters' pitch error there comes through the filter - our reading: the roll error "
+    "and the bias estimates that absorbed the roll-measurement error enter the Euler-rate "
+    "kinematics (θ̇ = q cos φ − r sin φ with the turn rate r). The smoother's bias is "
+    "GTSAM's random walk while the simulated drifts are first-order Markov (T_a, T_b in the "
+    "world file); with correlation times far beyond the run it passes a χ² NEES test "
+    "(tests), so its optimistic verdict here is that model mismatch. ")
+
+
+def covariance_note(s: dict[str, Any]) -> str:
+    """The runs whose smoother marginals GTSAM could not factor (no smoother NEES there)."""
+    ref = (s.get("reference") or {}).get(REFERENCE) or {}
+    n = ref.get("no_covariance_runs")
+    if not n:
+        return ""
+    return (f"The smoother's marginal covariances failed on {n} run(s) "
+            f"({'; '.join(ref.get('no_covariance_reasons') or [])}): its errors are scored, "
+            "its NEES is not.")
 
 
 def sections(s: dict[str, Any]) -> list[Section]:
@@ -191,8 +234,9 @@ def sections(s: dict[str, Any]) -> list[Section]:
         Section("Results", RESULTS.header, RESULTS.rows(s), consistency_rule()),
         Section("Turns and accelerations: gravity from the accelerometer", TURN_HEADER,
                 turn_rows(s),
-                turn_verdict(s)),
-        Section("How to read this", text=HOW_TO_READ + " ".join(failure_notes(s))),
+                " ".join(t for t in (turn_verdict(s), segment_note(s)) if t)),
+        Section("How to read this",
+                text=HOW_TO_READ + " ".join([*failure_notes(s), covariance_note(s)])),
     ]
 
 
@@ -202,7 +246,7 @@ def text_table(s: dict[str, Any]) -> str:
     rows = [[r[0], r[1], r[2], r[3], r[5], r[6], r[7], r[9], r[10]] for r in RESULTS.rows(s)]
     res = plain_table(["estimator", "roll°", "pitch°", "head°", "ANEES [band]", "in band",
                        "verdict", "ms/cyc", "div"], rows)
-    notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s)]
+    notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s), covariance_note(s)]
     return "\n".join([t1, "", res, "(RMSE in degrees over all epochs and runs)",
                       *[wrap(n) for n in notes if n]])
 

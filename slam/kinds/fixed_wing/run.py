@@ -8,8 +8,12 @@ initial errors from the initial covariances, and runs on it
   reading, then the update with the accelerometer/magnetometer angles;
 * the INS filters ``ins-<name>`` (:mod:`slam.kinds.fixed_wing.ins`): one epoch per GNSS
   fix - the mechanisation through the epoch's IMU samples, then the GNSS update (the
-  first fix, at t = 0, updates the prior);
-* the GTSAM smoother (:mod:`slam.kinds.fixed_wing.reference`) on the IMU and GNSS data.
+  first fix, at t = 0, updates the prior); with fixes more than
+  :data:`~slam.kinds.fixed_wing.simulate.INS_EPOCH_MAX_S` apart the prediction is cut into
+  epochs of a whole fraction of the GNSS period, updated only at the fixes, so that the
+  INS filters are scored between fixes too (``log.n_ins``);
+* the GTSAM smoother (:mod:`slam.kinds.fixed_wing.reference`) on the IMU and GNSS data,
+  with a state at the INS filters' epochs.
 
 Every filter comes from :func:`estimators.make_filter` and runs in the one loop
 (:func:`estimators.loop.run_epochs`); numerical failures are counted divergences.
@@ -40,7 +44,7 @@ from slam.kinds.fixed_wing.scoring import (
     nav_nees,
     summarize_scores,
 )
-from slam.kinds.fixed_wing.simulate import FixedWingLog, simulate
+from slam.kinds.fixed_wing.simulate import FixedWingLog, ins_samples, simulate
 from slam.kinds.fixed_wing.truth_stats import (
     accelerometer_angle_errors,
     flight_facts,
@@ -136,7 +140,7 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     """INS filter ``name`` (``ins-<filter>``) over the log (module docstring)."""
     w = log.world
     flt = make_filter(name.removeprefix("ins-"))
-    n, G = log.n_gnss, log.gnss_p.shape[0]
+    n, G, every = log.n_ins, log.ins_epochs, log.fix_every
     noise = ins_noise(w)
     meas = gnss_measurement(w.gnss.horizontal_sigma_m, w.gnss.vertical_sigma_m,
                             w.gnss.velocity_sigma_mps)
@@ -149,7 +153,9 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
                               log.earth_rate, noise), None
 
     def correct(i: int, b: Belief):
-        post, inn = flt.update(b, meas, z[i])
+        if i % every:
+            return b, []  # between fixes: the prediction is the estimate
+        post, inn = flt.update(b, meas, z[i // every])
         return post, [inn]
 
     out = run_epochs(flt, flt.init(x0, INS_SPACE, cov=P0), G, transition=transition,
@@ -159,10 +165,12 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
 
 
 def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Array,
-               time_s: float, cycles: int, diverged: bool, failure: str | None) -> FwScores:
-    """Scores of an INS-state series ``means`` (G, 19), ``covs`` (G, ≥9, ≥9) at the GNSS
-    epochs (the INS filters and the smoother)."""
-    samples = np.arange(means.shape[0]) * log.n_gnss
+               time_s: float, cycles: int, diverged: bool, failure: str | None,
+               note: str | None = None) -> FwScores:
+    """Scores of an INS-state series ``means`` (G, 19), ``covs`` (G, ≥9, ≥9) at the
+    epochs of the GNSS-aided estimators (the INS filters and the smoother; ``log.n_ins``
+    samples apart)."""
+    samples = np.arange(means.shape[0]) * log.n_ins
     tr = log.traj
     qh = means[:, 6:10]
     err, sig = euler_zyx_errors(qh, covs[:, 6:9, 6:9], tr.q[samples])
@@ -170,7 +178,7 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
     nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
     div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)
     return FwScores(name, samples * log.dt, err, sig, ep, ev, *segment_masks(log.world, samples),
-                    nees, 9, cycles, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
+                    nees, 9, cycles, note, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
                     failure=why)
 
 
@@ -179,13 +187,13 @@ def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:
 
     est, failure = run_reference(smooth, log, x0, P0)
     if est is None:
-        G = log.gnss_p.shape[0]
+        G = log.ins_epochs
         nan = np.full((G, 19), np.nan)
         return nav_scores(log, REFERENCE, nan, np.full((G, 9, 9), np.nan), np.zeros(0), 0.0,
                           G - 1, True, failure)
-    means, covs, time_s = est
+    means, covs, time_s, note = est
     return nav_scores(log, REFERENCE, means, covs, np.zeros(0), time_s, means.shape[0] - 1,
-                      False, None)
+                      False, None, note)
 
 
 def run_once(world: FixedWingWorld, run: int, seed_seq: np.random.SeedSequence,
@@ -201,7 +209,7 @@ def run_once(world: FixedWingWorld, run: int, seed_seq: np.random.SeedSequence,
                         else run_ins(log, name, *ins0))
     if reference:
         scores[REFERENCE] = _reference(log, *ins0)
-    times = np.arange(log.gnss_p.shape[0]) * log.n_gnss * log.dt
+    times = np.arange(log.ins_epochs) * log.n_ins * log.dt
     return RunOutcome(run, scores, times=times)  # type: ignore[arg-type]
 
 
@@ -219,6 +227,7 @@ def summarize(world: FixedWingWorld, outcomes: list[RunOutcome], filters: list[s
         "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
         "duration_s": world.duration_s, "imu_rate_hz": world.imu.rate_hz,
         "ea_rate_hz": world.ea.update_rate_hz, "gnss_rate_hz": world.gnss.rate_hz,
+        "ins_epoch_s": ins_samples(world) * world.imu.dt_s,
         "euler_sequence": "Z-Y-X (yaw, pitch, roll); body forward-left-up, navigation ENU",
         "flight": flight_facts(world),
         "accelerometer_angle_error_deg": accelerometer_angle_errors(world),

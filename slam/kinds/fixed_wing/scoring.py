@@ -37,7 +37,8 @@ class FwScores(EstimatorRun):
 
     err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
     turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
-    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    cycles : predict + update cycles; note : why the covariance is missing (the smoother's
+    marginals), if it is.  The :class:`~slam.results.EstimatorRun` fields:
     nis per update (``nis_dof`` each); time_s over the ``cycles`` (smoother: its solve).
     """
 
@@ -52,6 +53,7 @@ class FwScores(EstimatorRun):
     nees: Array
     nees_dof: int
     cycles: int
+    note: str | None = None
 
 
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:
@@ -96,13 +98,15 @@ def table1(good: list[FwScores]) -> dict[str, float | None]:
     return out
 
 
-def turn_split(good: list[FwScores]) -> dict[str, dict[str, float | None]]:
+def turn_split(good: list[FwScores]) -> dict[str, dict[str, Any]]:
     """RMS roll / pitch / heading error (deg) in turns, accelerating outside turns and in
-    steady flight."""
+    steady flight, each with ``epochs``: the estimator's epochs in the segment (per run;
+    the RMS is ``None`` when it is 0, see :mod:`slam.nulls`)."""
     att = np.stack([s.err_att for s in good]) / DEG
     masks = {"turns": good[0].turn, "accelerating": good[0].accel,
              "steady": ~good[0].turn & ~good[0].accel}
-    return {seg: {a: _rms(att[:, mask, i]) for i, a in enumerate(AXES)}
+    return {seg: {**{a: _rms(att[:, mask, i]) for i, a in enumerate(AXES)},
+                  "epochs": int(np.sum(mask))}
             for seg, mask in masks.items()}
 
 
@@ -121,6 +125,10 @@ def summarize_scores(scores: list[FwScores]) -> dict[str, Any]:
     good, out = scored_runs(scores)
     if not good:
         return out
+    notes = [s.note for s in good if s.note]
+    if notes:
+        out["no_covariance_runs"] = len(notes)
+        out["no_covariance_reasons"] = sorted(set(notes))
     att = np.stack([s.err_att for s in good]) / DEG
     out["att_rmse_deg"] = {a: _rms(att[..., i]) for i, a in enumerate(AXES)}
     out["table1"] = table1(good)

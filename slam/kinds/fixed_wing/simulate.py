@@ -38,6 +38,9 @@ from slam.kinds.fixed_wing.flight import Trajectory, fly
 from slam.kinds.fixed_wing.world import FixedWingWorld, FlightSpec
 
 Array = NDArray[np.float64]
+#: Longest epoch (s) of the GNSS-aided estimators: with fixes further apart, their
+#: prediction is cut into whole fractions of the GNSS period (:attr:`FixedWingLog.n_ins`).
+INS_EPOCH_MAX_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,32 @@ class FixedWingLog:
     def n_gnss(self) -> int:
         """IMU samples per GNSS epoch."""
         return round(self.world.imu.rate_hz / self.world.gnss.rate_hz)
+
+    @property
+    def n_ins(self) -> int:
+        """IMU samples per epoch of the GNSS-aided estimators (the INS filters and the
+        smoother): the GNSS period when fixes come at least every :data:`INS_EPOCH_MAX_S`;
+        else the longest whole fraction of it not above that, so that they have an
+        estimate, and a score, between fixes far apart (in turns that fall between them)."""
+        return ins_samples(self.world)
+
+    @property
+    def ins_epochs(self) -> int:
+        """Epochs of the GNSS-aided estimators (``n_ins`` samples apart, from t = 0)."""
+        return self.traj.n_samples // self.n_ins + 1
+
+    @property
+    def fix_every(self) -> int:
+        """INS epochs per GNSS fix (fix ``i`` is at INS epoch ``i · fix_every``)."""
+        return self.n_gnss // self.n_ins
+
+
+def ins_samples(world: FixedWingWorld) -> int:
+    """:attr:`FixedWingLog.n_ins` of ``world``: the largest divisor of the GNSS period's
+    IMU samples that spans at most :data:`INS_EPOCH_MAX_S`."""
+    n = round(world.imu.rate_hz / world.gnss.rate_hz)
+    most = max(1, math.floor(INS_EPOCH_MAX_S * world.imu.rate_hz + 1e-9))
+    return max(b for b in range(1, min(n, most) + 1) if n % b == 0)
 
 
 def field_enu(world: FixedWingWorld) -> Array:

@@ -74,7 +74,8 @@ def flight_facts(world: FixedWingWorld) -> dict[str, Any]:
 
 def accelerometer_angle_errors(world: FixedWingWorld) -> dict[str, Any]:
     """RMS and largest error (deg) of the gravity-rule roll / pitch on error-free
-    readings at the EA epochs, per segment (:func:`segment_masks`)."""
+    readings at the EA epochs, per segment (:func:`segment_masks`), with the segment's
+    ``epochs`` (the statistics are ``None`` when it is 0)."""
     tr = truth_of(world)
     n = round(world.imu.rate_hz / world.ea.update_rate_hz)
     f = tr.accel.reshape(-1, n, 3).mean(axis=1)
@@ -88,6 +89,7 @@ def accelerometer_angle_errors(world: FixedWingWorld) -> dict[str, Any]:
     err /= DEG
     out: dict[str, Any] = {}
     for seg, mask in split(*segment_masks(world, samples)).items():
-        out[seg] = {a: {"rms": _rms(err[mask, i]), "max": _max(err[mask, i])}
-                    for i, a in enumerate(("roll", "pitch", "heading"))}
+        out[seg] = {**{a: {"rms": _rms(err[mask, i]), "max": _max(err[mask, i])}
+                       for i, a in enumerate(("roll", "pitch", "heading"))},
+                    "epochs": int(np.sum(mask))}
     return out

@@ -237,6 +237,8 @@ RULES = (
     wc.divides_rate("ea.update_rate_hz", "imu.rate_hz", "IMU"),
     ws.Rule("duration_s", "gnss.rate_hz", lambda d, r: ws.is_whole(d * r) and d * r >= 2,
             lambda r: f"must be a whole number (>= 2) of GNSS periods ({1 / r:g} s)"),
+    ws.Rule("duration_s", "ea.update_rate_hz", lambda d, r: ws.is_whole(d * r) and d * r >= 1,
+            lambda r: f"must be a whole number of EA periods ({1 / r:g} s)"),
 )
 
 

@@ -111,10 +111,16 @@ def error_stats(e: Array, times: Array, steady: Array, bound: float) -> dict[str
                                    "rms": float(np.sqrt(np.mean(final[:, i] ** 2))),
                                    **_quantiles(final[:, i])} for i, a in enumerate(AXES)}
     tc = settle_times(np.all(np.abs(e[:, :, :2]) < bound, axis=2), times)
-    out["converge_roll_pitch_s"] = {**_quantiles(tc), "never": int(np.sum(~np.isfinite(tc)))}
-    tc_yaw = settle_times(np.abs(e[:, :, 2]) < bound, times)
-    out["converge_yaw_s"] = {**_quantiles(tc_yaw), "never": int(np.sum(~np.isfinite(tc_yaw)))}
+    out["converge_roll_pitch_s"] = _converge(tc)
+    out["converge_yaw_s"] = _converge(settle_times(np.abs(e[:, :, 2]) < bound, times))
     return out
+
+
+def _converge(tc: Array) -> dict[str, Any]:
+    """Quantiles of the runs' times to converge over the ``converged_runs``, and the runs
+    that ``never`` do (quantiles ``None`` when no run converges)."""
+    ok = np.isfinite(tc)
+    return {**_quantiles(tc), "never": int(np.sum(~ok)), "converged_runs": int(np.sum(ok))}
 
 
 def _consistency(good: list[ShipScores], steady: Array) -> dict[str, Any]:

@@ -191,8 +191,27 @@ def sweep_sections(s: dict[str, Any]) -> list[Section]:
 
 PAPER_TEXT = ("[Spin SR-CH∞KF] publishes no error numbers: its Fig. 5-8 are described in "
               "words, so the paper's column holds its statements, ours the measured RMSE "
-              "(ties within 0.1 % are listed together). Table 2's flight is met by the drag "
-              "calibration.")
+              "(ties within 0.1 % are listed together).")
+
+
+def flight_note(s: dict[str, Any]) -> str:
+    """How the flight meets Table 2: the calibration's misses (a world whose calibration
+    misses by more than its tolerance is refused), or, when the drag is given, the misses
+    (the summary's ``flight.warning`` when one exceeds the tolerance)."""
+    f = s.get("flight") or {}
+    miss = f.get("target_miss") or {}
+    cells = ", ".join(f"{key.removeprefix('target_').rsplit('_', 1)[0].replace('_', ' ')} "
+                      f"{tables.num(v, '+.1f', 100.0)} %" for key, v in miss.items())
+    if f.get("drag_calibrated"):
+        return (f"Table 2's flight is met by the drag calibration (k = "
+                f"{tables.num(f.get('drag_k_per_m'), '.4g')} /m; flown - target: {cells}; "
+                f"tolerance {tables.num(f.get('calibration_tolerance'), 'g', 100.0)} %).")
+    if not miss:
+        return ""
+    if f.get("warning"):
+        return f"Warning: {f['warning']}."
+    return (f"The drag is given (drag_k_per_m = {tables.num(f.get('drag_k_per_m'), 'g')} /m), "
+            f"not calibrated: the flight differs from Table 2's by {cells}.")
 
 HOW_TO_READ = (
     "Yaw is nearly unobservable from the axial field: the reading depends on it only through "
@@ -258,13 +277,19 @@ def hinf_verdict(s: dict[str, Any]) -> str:
 def sections(s: dict[str, Any]) -> list[Section]:
     """The report's sections (module docstring)."""
     out = [Section("Results", RESULTS.header, result_rows(s), _results_text(s)),
-           Section("Paper vs ours", ("", "paper", "ours"), paper_rows(s), PAPER_TEXT),
+           Section("Paper vs ours", ("", "paper", "ours"), paper_rows(s),
+                   " ".join(t for t in (PAPER_TEXT, flight_note(s)) if t)),
            Section("H∞ existence check", EXISTENCE_HEADER, existence_rows(s),
                    "Eq. 25/33's condition λmax(P_KF) < γ² (estimators.hinf) per update.")]
     out += sweep_sections(s)
     out.append(Section("How to read this", text=" ".join(filter(None, [
         HOW_TO_READ, prior_note(s), hinf_verdict(s)]))))
     return out
+
+
+def _warning(s: dict[str, Any]) -> str:
+    w = (s.get("flight") or {}).get("warning")
+    return f"warning: {w}" if w else ""
 
 
 def text_table(s: dict[str, Any]) -> str:
@@ -278,7 +303,7 @@ def text_table(s: dict[str, Any]) -> str:
         row[5] = row[5].split(" [")[0]
     notes = ["errors: RMSE in degrees over all epochs and runs; roll: outside the blind area, "
              "blind: roll inside it; roll floor*: roll from the magnetometer with the true "
-             "pitch and yaw.", tables.band_note(s), *tables.failure_notes(s)]
+             "pitch and yaw.", _warning(s), tables.band_note(s), *tables.failure_notes(s)]
     return "\n".join([tables.plain_table(header, rows), *(tables.wrap(n) for n in notes if n)])
 
 

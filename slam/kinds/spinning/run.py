@@ -11,6 +11,9 @@ Scores (:class:`SpinScores`), per estimator, at every epoch:
   angle is scored);
 * the NIS of each update and the updates whose H∞ existence condition failed.
 
+A world whose calibrated drag does not give its targets' flight is a world error
+(:func:`checked_flight`), found before the first run simulates anything.
+
 A run is diverged when the loop failed (its reason is kept) or when the final pitch or yaw
 error exceeds ``[scoring] divergence_deg``.
 
@@ -24,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,7 +45,16 @@ from slam.kinds.spinning.models import (
     world_models,
 )
 from slam.kinds.spinning.simulate import SpinLog, sim_config, simulate
-from slam.kinds.spinning.truth import blind_area, radial_blind, roll_from_field, trajectory
+from slam.kinds.spinning.truth import (
+    CALIBRATION_TOLERANCE,
+    Flight,
+    blind_area,
+    calibration_miss,
+    radial_blind,
+    roll_from_field,
+    target_misses,
+    trajectory,
+)
 from slam.kinds.spinning.world import SpinningWorld
 from slam.results import REFERENCE, RunOutcome
 from slam.scoring import nees_series
@@ -136,6 +149,7 @@ def run_once(world: SpinningWorld, run: int, seed_seq: np.random.SeedSequence,
              ) -> SpinOutcome:
     """Simulate run ``run``, score every filter and the smoother, and compute sweep log
     ``run`` if the sweep has that many (module docstring)."""
+    checked_flight(world)
     rng = np.random.default_rng(seed_seq)
     cfg = sim_config(world)
     log = simulate(cfg, rng)
@@ -165,11 +179,39 @@ def blind_mask(world: SpinningWorld, alpha: Array, beta: Array) -> Array:
     return blind_area(world.field, alpha, beta, world.scoring.blind_area_rad)
 
 
-def flight_facts(world: SpinningWorld) -> dict[str, float]:
-    """The flown trajectory's numbers next to Table 2's targets."""
-    f = trajectory(world.flight)
+def checked_flight(world: SpinningWorld) -> Flight:
+    """The world's flight; a ``WorldError`` naming the key when it cannot be flown, or its
+    drag is calibrated and misses the targets
+    (:func:`~slam.kinds.spinning.truth.calibration_miss`)."""
+    from worlds.schema import WorldError
+
+    try:
+        f = trajectory(world.flight)
+    except ValueError as exc:
+        raise WorldError(world.source or world.name, "flight",
+                         f"{exc} (launch speed_mps, pitch_deg; scale_height_m, drag_k_per_m)"
+                         ) from None
+    if why := calibration_miss(world.flight, f):
+        raise WorldError(world.source or world.name, *why)
+    return f
+
+
+def flight_facts(world: SpinningWorld) -> dict[str, Any]:
+    """The flown trajectory's numbers next to Table 2's targets: ``target_miss`` the relative
+    miss of each (flown / target - 1), within ``calibration_tolerance`` when the drag is
+    calibrated (:func:`checked_flight`); ``warning`` when a given drag misses by more."""
+    f = checked_flight(world)
     fs = world.flight
+    miss = target_misses(fs, f)
+    worst = max(miss, key=lambda key: abs(miss[key]))
+    warning = {}
+    if fs.drag_k_per_m is not None and abs(miss[worst]) > CALIBRATION_TOLERANCE:
+        warning = {"warning": f"the drag is given (drag_k_per_m = {fs.drag_k_per_m:g} /m), not "
+                              f"calibrated, and the flight misses {worst} by "
+                              f"{100 * miss[worst]:+.1f} % (more than "
+                              f"{100 * CALIBRATION_TOLERANCE:g} %): it is not Table 2's flight"}
     return {"drag_k_per_m": f.k_per_m, "drag_calibrated": fs.drag_k_per_m is None,
+            "calibration_tolerance": CALIBRATION_TOLERANCE, "target_miss": miss, **warning,
             "flight_time_s": f.flight_time_s, "range_m": f.range_m, "apex_m": f.apex_m,
             "target_flight_time_s": fs.target_flight_time_s,
             "target_range_m": fs.target_range_m, "target_apex_m": fs.target_apex_m,

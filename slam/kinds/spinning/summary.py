@@ -46,15 +46,26 @@ def _deg(x: float) -> float:
     return float(math.degrees(x))
 
 
+PARTS = {"": "in the flight", "_blind": "in the blind area",
+         "_outside": "outside the blind area"}
+
+
 def roll_stats(err: Array, blind: Array) -> dict[str, Any]:
     """Mean absolute error and RMSE (deg) of roll errors ``err`` (R, E): whole flight,
-    inside and outside the ``blind`` epochs (E,); ``None`` where a part is empty."""
+    inside and outside the ``blind`` epochs (E,); ``None`` where a part has no finite
+    error, with ``<key>_reason`` (:mod:`slam.nulls`)."""
     out: dict[str, Any] = {}
     for part, mask in (("", np.ones_like(blind)), ("_blind", blind), ("_outside", ~blind)):
         e = err[:, mask]
         e = e[np.isfinite(e)]
-        out[f"roll_mean_abs{part}_deg"] = _deg(np.mean(np.abs(e))) if e.size else None
-        out[f"roll_rmse{part}_deg"] = _deg(np.sqrt(np.mean(e**2))) if e.size else None
+        keys = (f"roll_mean_abs{part}_deg", f"roll_rmse{part}_deg")
+        if e.size:
+            out[keys[0]], out[keys[1]] = _deg(np.mean(np.abs(e))), _deg(np.sqrt(np.mean(e**2)))
+            continue
+        why = (f"no epoch {PARTS[part]} (blind_area.epochs = {int(blind.sum())} of "
+               f"{blind.size})" if not mask.any() else f"no finite roll error {PARTS[part]}")
+        for key in keys:
+            out[key], out[f"{key}_reason"] = None, why
     return out
 
 
@@ -76,10 +87,27 @@ def _fallbacks(scores: list[SpinScores], on_failure: str) -> dict[str, Any]:
     updates = sum(s.updates for s in scores)
     action = ("the update was replaced by the Kalman update of the same step"
               if on_failure == "kalman" else "the run ended (counted as diverged)")
-    return {"hinf_fallbacks": int(sum(falls)), "hinf_updates": int(updates),
-            "hinf_fallback_fraction": float(sum(falls) / updates) if updates else None,
-            "hinf_runs_with_fallbacks": int(sum(f > 0 for f in falls)),
-            "hinf_on_failure": action}
+    out = {"hinf_fallbacks": int(sum(falls)), "hinf_updates": int(updates),
+           "hinf_fallback_fraction": float(sum(falls) / updates) if updates else None,
+           "hinf_runs_with_fallbacks": int(sum(f > 0 for f in falls)),
+           "hinf_on_failure": action}
+    if not updates:
+        out["hinf_fallback_fraction_reason"] = "no H∞ update in any run (hinf_updates = 0)"
+    return out
+
+
+def detector_facts(detected: Array, blind: Array) -> dict[str, Any]:
+    """How the measured-field blind-area detector (R, E) agrees with the true ``blind``
+    epochs (E,): the fraction of all epochs it agrees on, of the blind epochs it misses
+    and of the others it flags (``None`` with a reason when the part has no epoch)."""
+    out: dict[str, Any] = {"detector_agreement": float(np.mean(detected == blind))}
+    for key, mask, value, part in (("detector_missed", blind, 0, "in the blind area"),
+                                   ("detector_false", ~blind, 1, "outside the blind area")):
+        if mask.any():
+            out[key] = float(np.mean(detected[:, mask] == value))
+        else:
+            out[key], out[f"{key}_reason"] = None, f"no epoch {part}"
+    return out
 
 
 def summarize_scores(scores: list[SpinScores], blind: Array, hinf: str | None = None
@@ -139,9 +167,7 @@ def summarize(world: SpinningWorld, outcomes: list[SpinOutcome], filters: list[s
     floors = [o.roll_floor_err for o in outcomes if o.roll_floor_err is not None]
     detected = [o.blind_detected for o in outcomes if o.blind_detected is not None]
     if detected:
-        blind_info["detector_agreement"] = float(np.mean(np.stack(detected) == blind))
-        blind_info["detector_missed"] = float(np.mean(np.stack(detected)[:, blind] == 0))
-        blind_info["detector_false"] = float(np.mean(np.stack(detected)[:, ~blind]))
+        blind_info.update(detector_facts(np.stack(detected), blind))
     records = [rec for o in outcomes for rec in o.sweep]
     z = np.array([o.prior_z for o in outcomes if o.prior_z is not None]).reshape(-1, 2)
     return {

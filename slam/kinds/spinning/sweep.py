@@ -119,11 +119,19 @@ def _finite(gamma: float | None) -> float | None:
     return None if gamma is None or math.isinf(gamma) else gamma
 
 
+def _no_gamma(name: str, gamma: float | None) -> str:
+    """Why a sweep row's ``gamma_rad`` is null."""
+    if gamma is None:
+        return f"{name} is a Kalman filter: no H∞ bound"
+    return "γ = ∞, the Kalman limit (strict JSON has no infinity)"
+
+
 def summarize_sweep(spec: Any, records: list[SweepRecord]) -> dict[str, Any]:
     """``summary.json``'s ``sweep``: per distribution, factor and row, the pitch and yaw
     RMSE (deg) over the logs where the row did not diverge, the H∞ existence failures
-    and updates, and the diverged logs.  ``gamma_rad`` is ``None`` for the Kalman filters
-    and for γ = ∞ (strict JSON has no infinity)."""
+    and updates, and the diverged logs; ``epochs`` the epochs the RMSE is over (0: no log
+    left, the RMSE null).  ``gamma_rad`` is ``None`` for the Kalman filters and for γ = ∞
+    (strict JSON has no infinity), with ``gamma_rad_reason``."""
     cells: list[dict[str, Any]] = []
     for dist in spec.distributions:
         for factor in spec.factors:
@@ -134,14 +142,19 @@ def summarize_sweep(spec: Any, records: list[SweepRecord]) -> dict[str, Any]:
                 n = sum(c.n for c in good)
                 sq = np.sum([c.sq for c in good], axis=0) if good else np.full(2, np.nan)
                 rmse = np.degrees(np.sqrt(sq / n)) if n else np.full(2, np.nan)
-                cells.append({
+                cell = {
                     "distribution": dist, "factor": factor, "row": lab, "filter": name,
                     "gamma_rad": _finite(gamma), "logs": len(got),
-                    "diverged": sum(c.diverged for c in got),
+                    "diverged": sum(c.diverged for c in got), "epochs": int(n),
                     "rmse_pitch_deg": float(rmse[0]), "rmse_yaw_deg": float(rmse[1]),
                     "fallbacks": sum(c.fallbacks for c in got),
-                    "updates": sum(c.updates for c in got)})
-    return {"factors": list(spec.factors), "gammas_rad": [_finite(g) for g in spec.gammas_rad],
-            "distributions": list(spec.distributions), "scale": spec.scale,
+                    "updates": sum(c.updates for c in got)}
+                if _finite(gamma) is None:
+                    cell["gamma_rad_reason"] = _no_gamma(name, gamma)
+                cells.append(cell)
+    out = {"factors": list(spec.factors), "gammas_rad": [_finite(g) for g in spec.gammas_rad]}
+    if None in out["gammas_rad"]:
+        out["gammas_rad_reason"] = _no_gamma("", math.inf)
+    return {**out, "distributions": list(spec.distributions), "scale": spec.scale,
             "runs_per_cell": spec.runs_per_cell, "logs_done": len(records),
             "rows": [lab for lab, _, _ in sweep_rows(spec)], "cells": cells}

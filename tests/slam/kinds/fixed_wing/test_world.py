@@ -49,6 +49,8 @@ def test_bundled_world_and_its_flight_meet_the_papers_setup() -> None:
     ({"filters.names": ["ea-ukf", "ins-hommukf"]}, "filters.names[1]", "unknown"),
     ({"duration_s": 10_000.0}, "duration_s", "must be in (0, 7200]"),
     ({"ea.roll_pitch_sigma_deg": -1.0}, "ea.roll_pitch_sigma_deg", "must be in (0, 90]"),
+    ({"duration_s": 501.0, "ea.update_rate_hz": 0.4}, "duration_s",
+     "must be a whole number of EA periods (2.5 s)"),  # was a reshape ValueError in the run
 ])
 def test_world_errors_name_the_key(change, key, message) -> None:
     with pytest.raises(WorldError) as err:

@@ -46,3 +46,17 @@ def fw_world(**overrides: Any) -> FixedWingWorld:
 def short_world(**overrides: Any) -> FixedWingWorld:
     """The 30 s flight of :data:`SHORT_FLIGHT` with ``overrides``."""
     return fw_world(**{**SHORT_FLIGHT, **overrides})
+
+
+#: A 20 s level flight with one left turn at 3-7 s, between GNSS fixes 10 s apart (0, 10,
+#: 20 s): no fix falls in the turn.
+TURN_BETWEEN_FIXES = {"duration_s": 20.0, "gnss.rate_hz": 0.1,
+                      "flight.start_climb_deg": 0.0, "flight.start_speed_mps": 25.0,
+                      "flight.manoeuvre_start_s": [3.0, 6.0], "flight.manoeuvre_ramp_s": [1.0, 1.0],
+                      "flight.turn_rate_deg_s": [9.0, 0.0], "flight.climb_deg": [0.0, 0.0],
+                      "flight.speed_mps": [25.0, 25.0]}
+
+
+def turn_between_fixes(**overrides: Any) -> FixedWingWorld:
+    """:data:`TURN_BETWEEN_FIXES` with ``overrides``, one run."""
+    return fw_world(**{**TURN_BETWEEN_FIXES, "runs": 1, **overrides})
