@@ -183,3 +183,32 @@ def rankings(metrics: Sequence[Metric], names: Sequence[str] | None = None,
              reference: str | None = None) -> dict[str, dict[str, Any]]:
     """:func:`rank` of every metric, keyed by :attr:`Metric.key`."""
     return {m.key: rank(m, names, reference) for m in metrics}
+
+
+def ordering(metric: Metric, better: str, worse: str) -> dict[str, Any]:
+    """The paired test of a paper's claim that filter ``better`` beats ``worse`` on
+    ``metric``: :func:`paired` of their per-run MSE (``better - worse``, so a negative mean
+    agrees with the claim) and a ``verdict``: ``reproduced`` (mean below −:data:`LEVEL`
+    s.e.), ``reversed`` (above +:data:`LEVEL` s.e.), ``not significant``, ``identical``
+    (within :data:`IDENTICAL_RTOL` of the MSE) or, with fewer than 2 paired runs, ``None``
+    and a ``verdict_reason``."""
+    a = np.asarray(metric.per_run_mse[better], dtype=float)
+    b = np.asarray(metric.per_run_mse[worse], dtype=float)
+    out: dict[str, Any] = {"metric": metric.key, "label": metric.label, "unit": metric.unit,
+                           "better": better, "worse": worse, **paired(a, b)}
+    ok = np.isfinite(a) & np.isfinite(b)
+    if out["se"] is None:
+        return {**out, "verdict": None, "verdict_reason": out["se_reason"]}
+    ref = float(np.mean(b[ok]))
+    out["rmse_better"], out["rmse_worse"] = math.sqrt(float(np.mean(a[ok]))), math.sqrt(ref)
+    dm, se = out["mean"], out["se"]
+    if abs(dm) <= IDENTICAL_RTOL * max(abs(ref), 1e-300):
+        out["verdict"] = "identical"
+    elif se > 0.0 and abs(dm) <= LEVEL * se:
+        out["verdict"] = "not significant"
+    else:
+        out["verdict"] = "reproduced" if dm < 0 else "reversed"
+    out["z"] = dm / se if se > 0.0 else None
+    if se == 0.0:
+        out["z_reason"] = "the paired differences are all equal (standard error 0)"
+    return out

@@ -276,6 +276,24 @@ class Vector(Field):
         return tuple(float(v) * self.scale for v in value)
 
 
+class NumberList(Field):
+    """A non-empty list of numbers, each in ``interval``, multiplied by ``scale``."""
+
+    def __init__(self, interval: Interval, scale: float = 1.0, max_len: int = 1000,
+                 default: Any = REQUIRED) -> None:
+        self.interval, self.scale, self.max_len, self.default = interval, scale, max_len, default
+
+    def parse(self, value: Any, where: Where) -> tuple[float, ...]:
+        if not isinstance(value, list) or not 0 < len(value) <= self.max_len:
+            raise where.error(f"must be a list of 1 to {self.max_len} numbers", value)
+        for i, v in enumerate(value):
+            if not _is_number(v):
+                raise where.item(i).error("must be a number", v)
+            if v not in self.interval:
+                raise where.item(i).error(f"must be in {self.interval}", v)
+        return tuple(float(v) * self.scale for v in value)
+
+
 class Points(Field):
     """A list of ``[x, y]`` pairs of finite numbers -> float array ``(n, 2)``."""
 

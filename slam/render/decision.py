@@ -76,3 +76,37 @@ def decision_text(summary: dict[str, Any], width: int = TERMINAL_WIDTH) -> str:
     if summary.get("headline"):
         lines += [""] + textwrap.wrap(summary["headline"], width)
     return "\n".join(lines)
+
+
+ORDERING_HEADER = ("paper's claim", "metric", "RMSE", "ΔMSE ± s.e.", "z", "runs", "verdict")
+
+
+def ordering_rows(summary: dict[str, Any]) -> list[list[str]]:
+    """One row per paper ordering tested in the summary's ``paper_ordering``
+    (:func:`slam.ranking.ordering`): ``better`` beats ``worse``, with their RMSE and the
+    paired ΔMSE (better − worse; negative agrees with the paper)."""
+    rows = []
+    for o in summary.get("paper_ordering") or []:
+        unit = o["unit"]
+        if o.get("verdict") is None:
+            rows.append([f"{o['better']} beats {o['worse']}", o["label"], MISSING, MISSING,
+                         MISSING, str(o.get("runs", 0)),
+                         f"untested: {o.get('verdict_reason', MISSING)}"])
+            continue
+        rows.append([f"{o['better']} beats {o['worse']}", o["label"],
+                     f"{o['rmse_better']:#.4g} vs {o['rmse_worse']:#.4g} {unit}",
+                     f"{o['mean']:+.3g} ± {o['se']:.2g} {unit}²", num(o.get("z"), "+.1f"),
+                     str(o["runs"]), o["verdict"]])
+    return rows
+
+
+def ordering_section(summary: dict[str, Any], text: str = "") -> Section | None:
+    """The report section of the paper's orderings (``None`` when none was tested)."""
+    rows = ordering_rows(summary)
+    if not rows:
+        return None
+    rule = ("Paired over the runs both finished: ΔMSE is the mean of the per-run MSE "
+            "difference (claimed better − claimed worse; negative agrees with the paper); "
+            "'reproduced' when it is below −2 s.e., 'reversed' above +2 s.e.")
+    return Section("The paper's ordering, tested", ORDERING_HEADER, rows,
+                   f"{text} {rule}".strip())

@@ -5,6 +5,7 @@ saving, run 0's tracks, covariance ellipses, run averages, and the error-grid fi
 from __future__ import annotations
 
 import math
+import textwrap
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -164,12 +165,15 @@ class ErrorPanel:
     paper: Sequence[float] | None = None
     settle: int = 0
     """Epochs left out of the y range (a transient that would flatten the rest)."""
+    limit: Sequence[float] | None = None
+    """A theoretical limit (e.g. the level limit ∇/g), drawn dotted at these values."""
 
     def extent(self) -> list[float]:
         """The magnitudes the panel's y range must hold (not a diverged run's blow-up)."""
         env = None if self.env is None else np.abs(np.asarray(self.env)[:, self.settle:])
         out = [] if env is None or not np.isfinite(env).any() else [float(np.nanmax(env))]
-        return out + ([] if self.paper is None else [abs(v) for v in self.paper])
+        return (out + ([] if self.paper is None else [abs(v) for v in self.paper])
+                + ([] if self.limit is None else [abs(v) for v in self.limit]))
 
     def draw(self, ax: plt.Axes, t: Array, colour: str) -> None:
         if self.env is not None:
@@ -186,6 +190,8 @@ class ErrorPanel:
             ax.plot(t, self.reference, color=REFERENCE_COLOUR, lw=0.7, alpha=0.8)
         for v in self.paper or ():
             ax.axhline(v, color=colour, ls="--", lw=1.2)
+        for v in self.limit or ():
+            ax.axhline(v, color="0.25", ls=":", lw=1.0)
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.grid(True, lw=0.3, alpha=0.5)
 
@@ -197,6 +203,7 @@ LEGEND = {
     "paper": lambda: Line2D([], [], color="0.2", ls="--", lw=1.2, label="paper's range"),
     "reference": lambda: Line2D([], [], color=REFERENCE_COLOUR, lw=0.7,
                                 label="gtsam run 0 error"),
+    "limit": lambda: Line2D([], [], color="0.25", ls=":", lw=1.0, label="theoretical limit"),
 }
 """The error grid's legend entries by name."""
 
@@ -229,14 +236,16 @@ def _drawn(p: ErrorPanel) -> set[str]:
     out = {"error", "sigma"} if p.run0 is not None else set()
     out |= {"envelope"} if p.env is not None else set()
     out |= {"paper"} if p.paper else set()
+    out |= {"limit"} if p.limit else set()
     return out | ({"reference"} if p.reference is not None else set())
 
 
 def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
                panel: Callable[[str, int], ErrorPanel], colours: dict[str, str],
-               names: Sequence[str] | None = None) -> None:
+               names: Sequence[str] | None = None, note: str = "") -> None:
     """One row per estimator in ``names`` (default: the filters), one column per
-    ``grid.axes`` entry: ``panel(name, column)``."""
+    ``grid.axes`` entry: ``panel(name, column)``; ``note`` (e.g. which rows coincide) is
+    printed above the legend."""
     names = list(filter_names(result) if names is None else names)
     t = run0(result).times
     fig, axes = plt.subplots(len(names), len(grid.axes),
@@ -261,8 +270,12 @@ def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
     _set_limits(axes, lim, grid.sharey)
     legend = [LEGEND[k]() for k in grid.legend if k in drawn]
     bottom_legend(fig, legend)
-    inch_layout(fig, len(names), len(grid.axes), bottom=0.55 + 0.25 * bool(legend),
-                hgap=0.25)
+    lines = textwrap.wrap(note, int(grid.width * 15)) if note else []
+    if lines:
+        fig.text(0.5, (0.05 + 0.25 * bool(legend)) / fig.get_size_inches()[1],
+                 "\n".join(lines), ha="center", va="bottom", fontsize=8)
+    inch_layout(fig, len(names), len(grid.axes),
+                bottom=0.55 + 0.25 * bool(legend) + 0.16 * len(lines), hgap=0.25)
     fig.suptitle(titled(result, grid.title), fontsize=11)
     save(fig, path)
 

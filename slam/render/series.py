@@ -255,3 +255,41 @@ def map_per_epoch(result: CampaignResult, name: str) -> MapEpochs | None:
     lo, hi = chi2_band(s_count * dof)
     return MapEpochs(rmse, EpochConsistency(value, lo, hi), mean(field("n")),
                      mean(field("trace")))
+
+
+COINCIDE_RTOL = 0.01
+"""Two curves coincide when their largest difference is below this fraction of the
+larger curve's largest magnitude (they then overdraw each other at a figure's scale)."""
+
+
+def coinciding(curves: dict[str, Array | None], rtol: float = COINCIDE_RTOL
+               ) -> list[tuple[str, str, float]]:
+    """Pairs ``(a, b, largest |a - b|)`` of the curves (same epochs; NaN left out) whose
+    largest difference is below ``rtol`` × the larger of their largest magnitudes, each
+    curve paired with the first curve it coincides with (in the dict's order)."""
+    names = [n for n, c in curves.items() if c is not None and np.isfinite(c).any()]
+    out: list[tuple[str, str, float]] = []
+    used: set[str] = set()
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if b in used:
+                continue
+            ca, cb = np.asarray(curves[a]), np.asarray(curves[b])
+            ok = np.isfinite(ca) & np.isfinite(cb)
+            if not ok.any():
+                continue
+            diff = float(np.max(np.abs(ca[ok] - cb[ok])))
+            scale = max(float(np.max(np.abs(ca[ok]))), float(np.max(np.abs(cb[ok]))))
+            if diff <= rtol * scale:
+                out.append((a, b, diff))
+                used.add(b)
+    return out
+
+
+def coincidence_note(curves: dict[str, Array | None], unit: str, what: str = "",
+                     rtol: float = COINCIDE_RTOL) -> str:
+    """``"ukf and uthinf coincide (largest difference 0.012 ′)"`` for every coinciding
+    pair of :func:`coinciding` (``what`` prefixes each), ``""`` when none does."""
+    pairs = coinciding(curves, rtol)
+    return "; ".join(f"{what}{a} and {b} coincide (largest difference {d:.3g} {unit})"
+                     for a, b, d in pairs)

@@ -51,23 +51,6 @@ FILTERS = tuple(f"ea-{n}" for n in EA_FILTERS) + tuple(f"ins-{n}" for n in INS_F
 ``ins-*`` on the INS/unit-quaternion model."""
 
 
-class NumberList(ws.Field):
-    """A non-empty list of numbers, each in ``interval``, multiplied by ``scale``."""
-
-    def __init__(self, interval: ws.Interval, scale: float = 1.0, max_len: int = 1000) -> None:
-        self.interval, self.scale, self.max_len = interval, scale, max_len
-
-    def parse(self, value: Any, where: ws.Where) -> tuple[float, ...]:
-        if not isinstance(value, list) or not 0 < len(value) <= self.max_len:
-            raise where.error(f"must be a list of 1 to {self.max_len} numbers", value)
-        for i, v in enumerate(value):
-            if not isinstance(v, int | float) or isinstance(v, bool):
-                raise where.item(i).error("must be a number", v)
-            if v not in self.interval:
-                raise where.item(i).error(f"must be in {self.interval}", v)
-        return tuple(float(v) * self.scale for v in value)
-
-
 @dataclass(frozen=True)
 class FlightSpec:
     """The smooth flight: start state and manoeuvres; manoeuvre ``i`` ramps turn rate,
@@ -189,11 +172,11 @@ WORLD = wc.world(KIND, FixedWingWorld, {
         "start_heading_deg": ws.Number(ws.Interval(-180.0, 180.0), scale=DEG)
         .to("start_heading_rad"),
         "start_climb_deg": ws.Number(ws.Interval(-30.0, 30.0), scale=DEG).to("start_climb_rad"),
-        "manoeuvre_start_s": NumberList(ws.Interval(0.0, 7_200.0)).to("start_s"),
-        "manoeuvre_ramp_s": NumberList(ws.Interval(0.5, 600.0)).to("ramp_s"),
-        "turn_rate_deg_s": NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("turn_rate_rad_s"),
-        "climb_deg": NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("climb_rad"),
-        "speed_mps": NumberList(SPEED),
+        "manoeuvre_start_s": ws.NumberList(ws.Interval(0.0, 7_200.0)).to("start_s"),
+        "manoeuvre_ramp_s": ws.NumberList(ws.Interval(0.5, 600.0)).to("ramp_s"),
+        "turn_rate_deg_s": ws.NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("turn_rate_rad_s"),
+        "climb_deg": ws.NumberList(ws.Interval(-30.0, 30.0), scale=DEG).to("climb_rad"),
+        "speed_mps": ws.NumberList(SPEED),
     }, into=FlightSpec),
     "imu": ws.Section({
         "rate_hz": ws.Number(ws.Interval(10.0, 1_000.0)),
