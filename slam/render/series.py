@@ -264,7 +264,8 @@ larger curve's largest magnitude (they then overdraw each other at a figure's sc
 
 def coinciding(curves: dict[str, Array | None], rtol: float = COINCIDE_RTOL
                ) -> list[tuple[str, str, float]]:
-    """Pairs ``(a, b, largest |a - b|)`` of the curves (same epochs; NaN left out) whose
+    """Pairs ``(a, b, largest |a - b|)`` of the curves (same epochs: curves of another
+    length are not compared; NaN left out) whose
     largest difference is below ``rtol`` × the larger of their largest magnitudes, each
     curve paired with the first curve it coincides with (in the dict's order)."""
     names = [n for n, c in curves.items() if c is not None and np.isfinite(c).any()]
@@ -275,6 +276,8 @@ def coinciding(curves: dict[str, Array | None], rtol: float = COINCIDE_RTOL
             if b in used:
                 continue
             ca, cb = np.asarray(curves[a]), np.asarray(curves[b])
+            if ca.shape != cb.shape:  # at other epochs: not the same curve
+                continue
             ok = np.isfinite(ca) & np.isfinite(cb)
             if not ok.any():
                 continue
@@ -286,10 +289,17 @@ def coinciding(curves: dict[str, Array | None], rtol: float = COINCIDE_RTOL
     return out
 
 
-def coincidence_note(curves: dict[str, Array | None], unit: str, what: str = "",
-                     rtol: float = COINCIDE_RTOL) -> str:
-    """``"ukf and uthinf coincide (largest difference 0.012 ′)"`` for every coinciding
-    pair of :func:`coinciding` (``what`` prefixes each), ``""`` when none does."""
-    pairs = coinciding(curves, rtol)
-    return "; ".join(f"{what}{a} and {b} coincide (largest difference {d:.3g} {unit})"
-                     for a, b, d in pairs)
+def coincidence_note(columns: dict[str, dict[str, Array | None]], units: dict[str, str],
+                     what: str = "curves", rtol: float = COINCIDE_RTOL) -> str:
+    """One sentence naming, pair by pair, the estimators whose curves coincide
+    (:func:`coinciding`) in some of the figure's ``columns`` (column -> estimator -> curve),
+    with the largest difference per column in its unit (``units``); ``""`` when none do.
+    E.g. ``"Overdrawn - run 0's curves that coincide, with their largest difference: ukf
+    and uthinf (east 0.0002 ′, north 0.0005 ′)."``"""
+    pairs: dict[tuple[str, str], list[str]] = {}
+    for col, curves in columns.items():
+        for a, b, d in coinciding(curves, rtol):
+            pairs.setdefault((a, b), []).append(f"{col} {d:.2g} {units.get(col, '')}".rstrip())
+    text = "; ".join(f"{a} and {b} ({', '.join(v)})" for (a, b), v in pairs.items())
+    return (f"Overdrawn - {what} that coincide, with their largest difference: {text}."
+            if text else "")

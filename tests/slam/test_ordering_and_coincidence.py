@@ -51,10 +51,13 @@ def test_coinciding_curves() -> None:
     t = np.linspace(0.0, 1.0, 50)
     base = np.sin(6 * t) + 2.0
     curves = {"a": base, "b": base + 0.001, "c": base * 1.5, "d": None,
-              "e": np.where(t > 0.5, base, np.nan)}
+              "e": np.where(t > 0.5, base, np.nan), "f": base[::2]}
     pairs = coinciding(curves)
     assert [(a, b) for a, b, _ in pairs] == [("a", "b"), ("a", "e")]
     assert math.isclose(pairs[0][2], 0.001, rel_tol=1e-6) and pairs[1][2] == 0.0
-    note = coincidence_note({"a": base, "b": base + 0.001}, "m", "x: ")
-    assert note == "x: a and b coincide (largest difference 0.001 m)"
-    assert coincidence_note({"a": base, "c": base * 1.5}, "m") == ""
+    note = coincidence_note({"x": {"a": base, "b": base + 0.001},
+                             "y": {"a": base, "b": base + 0.002, "c": base * 1.5}},
+                            {"x": "m", "y": "m/s"}, "run 0's curves")
+    assert note == ("Overdrawn - run 0's curves that coincide, with their largest difference: "
+                    "a and b (x 0.001 m, y 0.002 m/s).")
+    assert coincidence_note({"x": {"a": base, "c": base * 1.5}}, {"x": "m"}) == ""

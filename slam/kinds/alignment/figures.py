@@ -26,7 +26,7 @@ from slam.kinds.alignment.scoring import ARCMIN, AXES
 from slam.render import plotting
 from slam.render.figures import FigureSpec, figure_table
 from slam.render.plotting import plt
-from slam.render.series import coinciding, run_statistic
+from slam.render.series import coincidence_note, run_statistic
 from slam.results import REFERENCE, Array, CampaignResult
 
 SETTLE_S = 10.0
@@ -84,23 +84,16 @@ def plot_errors(result: CampaignResult, path: Path) -> None:
     names = [n for n in _names(result) if n != REFERENCE]
     run0 = {n: first.scores[n].err / ARCMIN for n in names if n in first.scores}
     plotting.error_grid(result, path, grid, panel, plotting.estimator_colours(_names(result)),
-                        names, coincidences(run0, t, "run 0's "))
+                        names, coincidences(run0, t, "run 0's curves"))
 
 
-def coincidences(curves: dict[str, Array], t: Array, what: str = "") -> str:
-    """Which estimators' curves (M, 3) coincide on some axis, after the first 10 s on East
-    and North (:func:`slam.render.series.coinciding`), pair by pair with the largest
-    difference per axis, as one sentence (``""`` when none do)."""
+def coincidences(curves: dict[str, Array], t: Array, what: str) -> str:
+    """Which estimators' curves (M, 3) coincide per axis, after the first 10 s on East and
+    North (:func:`slam.render.series.coincidence_note`)."""
     settle = t >= min(SETTLE_S, t[-1] / 2)
-    pairs: dict[tuple[str, str], list[str]] = {}
-    for i, axis in enumerate(AXES):
-        keep = settle if i < 2 else np.ones_like(settle)
-        for a, b, d in coinciding({n: np.where(keep, c[:, i], np.nan)
-                                   for n, c in curves.items()}):
-            pairs.setdefault((a, b), []).append(f"{axis} {d:.2g}′")
-    text = "; ".join(f"{a} and {b} ({', '.join(v)})" for (a, b), v in pairs.items())
-    return (f"Overdrawn - {what}curves that coincide, with their largest difference: {text}."
-            if text else "")
+    columns = {axis: {n: np.where(settle if i < 2 else True, c[:, i], np.nan)
+                      for n, c in curves.items()} for i, axis in enumerate(AXES)}
+    return coincidence_note(columns, dict.fromkeys(AXES, "′"), what)
 
 
 def plot_rms(result: CampaignResult, path: Path) -> None:
@@ -113,7 +106,7 @@ def plot_rms(result: CampaignResult, path: Path) -> None:
         return run_statistic(result, name, lambda e: np.sqrt(np.nanmean(e**2, axis=0)) / ARCMIN)
 
     note = coincidences({n: y for n in names if n != REFERENCE and (y := rms(n)) is not None},
-                        t, "RMS ")
+                        t, "RMS curves")
     lines = textwrap.wrap(note, 190)
     if lines:
         fig.text(0.5, 0.27 / fig.get_size_inches()[1], "\n".join(lines), ha="center",

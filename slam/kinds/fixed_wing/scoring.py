@@ -37,7 +37,8 @@ class FwScores(EstimatorRun):
 
     err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
     turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
-    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    cycles : predict + update cycles; sig_pos, sig_vel : (M, 3) own σ of err_pos, err_vel
+    or None.  The :class:`~slam.results.EstimatorRun` fields:
     nis per update (``nis_dof`` each); time_s over the ``cycles`` (smoother: its solve).
     """
 
@@ -52,6 +53,8 @@ class FwScores(EstimatorRun):
     nees: Array
     nees_dof: int
     cycles: int
+    sig_pos: Array | None = None
+    sig_vel: Array | None = None
 
 
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:
