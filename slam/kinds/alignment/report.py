@@ -244,9 +244,14 @@ HOW_TO_READ = (
     "keeps the motion's size) but its linearisation adds |v_h|²/σ_v² ≈ 1.7 rad⁻² per "
     "update, so the azimuth σ still shrinks, as 1/√(17 t) rad over the first 10 s "
     "(measured to 10 %) and to about 1.5° at 200 s, while the error stays near its start "
-    "(the EKF's moves further during the levelling): the 3-dof ANEES is that azimuth "
+    "(the EKF's and the UKF's move further during the levelling: with the paper's small α "
+    "the UKF's points lie at ±0.0036σ, a linearisation like the EKF's, where the cubature "
+    "filters' lie at ±3.6σ): the 3-dof ANEES is that azimuth "
     "term; see the level-axes ANEES. The smoother's azimuth error also stays near its "
-    "start, with a smaller σ than that (its ANEES; not examined here). "
+    "start, with a smaller σ than that (its ANEES; not examined here). The decision ranks "
+    "the settled epochs (from [scoring] settled_from_s, the paper's 50 s) by each run's "
+    "mean squared level (East, North) error and, apart, azimuth error, paired over the "
+    "runs; the smoother's RMSE is given beside the ranking, not ranked. "
     + tables.consistency_rule())
 
 
