@@ -14,7 +14,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from slam.ranking import Metric, rankings
+from slam.ranking import Metric, rank
 from slam.render.tables import verdict
 from slam.results import REFERENCE
 
@@ -90,8 +90,10 @@ def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Se
     ``headline`` (the decision in sentences) and, per filter entry, ``settings`` /
     ``settings_text`` (its tuning constants) added; a new dict.
 
-    ``filters`` are ranked (baselines and the reference are not); ``variants`` maps a
-    standard filter to its invariant-error variant for the headline's hint.
+    ``filters`` are ranked (baselines and the reference are not), each metric among the
+    filters it has a per-run MSE of (a kind's metric may hold only some of its filters,
+    e.g. position for the filters that estimate one); ``variants`` maps a standard filter
+    to its invariant-error variant for the headline's hint.
     """
     out = dict(summary)
     entries = {k: dict(v) for k, v in (summary.get("filters") or {}).items()}
@@ -102,8 +104,8 @@ def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Se
             if settings_text is not None:
                 entries[name]["settings_text"] = settings_text.get(name, "")
     out["filters"] = entries
-    out["ranking"] = rankings(metrics, [f for f in filters
-                                        if all(f in m.per_run_mse for m in metrics)], reference)
+    out["ranking"] = {m.key: rank(m, [f for f in filters if f in m.per_run_mse], reference)
+                      for m in metrics}
     parts = [_metric_sentence(b) for b in out["ranking"].values()]
     if consistency is not None:
         parts.append(_consistency_sentence(entries, list(filters), consistency,

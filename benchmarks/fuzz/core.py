@@ -89,8 +89,12 @@ def cheapen(doc: dict[str, Any]) -> dict[str, Any]:
             and "flight" not in doc):  # a flight plan is tied to its duration
         doc["duration_s"] = 40.0
         score = doc.get("scoring")
-        if isinstance(score, dict) and score.get("steady_state_from_s", 0) > 20:
-            score["steady_state_from_s"] = 20.0
+        for key in ("steady_state_from_s", "settled_from_s"):  # ship, alignment
+            if isinstance(score, dict) and score.get(key, 0) > 20:
+                score[key] = 20.0
+    sweep = doc.get("sweep")
+    if isinstance(sweep, dict) and isinstance(sweep.get("runs"), int) and sweep["runs"] > 1:
+        sweep["runs"] = 1  # the alignment gamma sweep: one run's cells
     mp = doc.get("map")
     if isinstance(mp, dict) and "file" in mp and isinstance(filt, dict):
         filt["mode"] = "local"  # map files hold the big maps (densemap: 135 landmarks)

@@ -59,9 +59,10 @@ SHORT: dict[str, Callable[[str], Any]] = {
         "sample_interval_s": 1.0, "sweep.factors": [2.0], "sweep.gammas_rad": [2.0],
         "sweep.runs_per_cell": 1, "sweep.filters": ["srckf"]}),
     "fixed-wing": lambda name: _overridden(name, {
-        "duration_s": 10.0, "flight.manoeuvre_start_s": [2.0], "flight.manoeuvre_ramp_s": [4.0],
+        "duration_s": 20.0, "flight.manoeuvre_start_s": [2.0], "flight.manoeuvre_ramp_s": [4.0],
         "flight.turn_rate_deg_s": [9.0], "flight.climb_deg": [0.0], "flight.speed_mps": [25.0]}),
-    "alignment": lambda name: _overridden(name, {"duration_s": 2.0}),
+    "alignment": lambda name: _overridden(name, {"duration_s": 2.0, "scoring.settled_from_s": 1.0,
+                                                 "sweep.runs": 0}),
 }
 """Kind -> the bundled world ``name`` cut to one short run of its own models."""
 

@@ -7,5 +7,5 @@ from slam.kinds.alignment.world import KIND as NAME
 from slam.kinds.alignment.world import NAMES, parse, work
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
-            Deferred(f"{__name__}.run:summarize"), Deferred(f"{__name__}.report:REPORT"),
+            Deferred(f"{__name__}.summary:summarize"), Deferred(f"{__name__}.report:REPORT"),
             filters=NAMES, work=work)

@@ -2,14 +2,17 @@ r"""Alignment ([Wu-Wang 2014]): one Monte Carlo run and the campaign summary.
 
 Every run simulates the log once (:mod:`slam.kinds.alignment.simulate`) and runs on it
 
-* the world's filters (``[filters] names``), each from :func:`estimators.make_filter`
-  (``uthinf`` / ``srchinf`` with the world's γ, raising on a Riccati-condition failure,
-  which ends the run as diverged with its reason), on the AQE model
+* the world's filters (``[filters] names``), each built from its stated settings
+  (``[filters.unscented]`` α, β, κ for ``ukf`` / ``uthinf``; ``[filters.hinf]`` γ and
+  ``on_failure`` for ``uthinf`` / ``srchinf``: ``"raise"`` ends the run as diverged with
+  its reason at a Riccati-condition failure, ``"kalman"`` takes the Kalman update for that
+  step and counts it), on the AQE model
   (:mod:`slam.kinds.alignment.models`): first update at t = 0, then one prediction
   through the interval's 100 IMU samples and one velocity update per 100 ms, through the
   one filter loop :func:`estimators.loop.run_epochs`;
 * the GTSAM smoother (:mod:`slam.kinds.alignment.reference`) on the first
-  ``[reference] runs`` runs.
+  ``[reference] runs`` runs;
+* the γ sweep (:mod:`slam.kinds.alignment.sweep`) on the first ``[sweep] runs`` runs.
 
 Scores: the residual misalignment (East, North, azimuth = Up) of the corrected attitude
 against the truth, its σ from the estimator's covariance, the 3-dof misalignment NEES
@@ -20,12 +23,13 @@ the 2-dof NEES of the level axes alone, and the 13-dof NEES of the whole error s
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Euclidean, make_filter, settings_for
+from estimators import Euclidean
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from slam.kinds.alignment.models import (
@@ -37,8 +41,9 @@ from slam.kinds.alignment.models import (
     velocity_measurement,
 )
 from slam.kinds.alignment.reference import smooth_alignment
-from slam.kinds.alignment.scoring import AlignScores, limits, summarize_scores
+from slam.kinds.alignment.scoring import AlignScores
 from slam.kinds.alignment.simulate import AlignmentLog, simulate_alignment
+from slam.kinds.alignment.sweep import SweepCell, sweep_run
 from slam.kinds.alignment.world import AlignmentWorld
 from slam.results import REFERENCE, RunOutcome
 from slam.scoring import nees_series
@@ -46,17 +51,22 @@ from slam.scoring import nees_series
 Array = NDArray[np.float64]
 
 
-def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str) -> AlignScores:
-    """Filter ``name`` over the log (module docstring), scored against the truth."""
-    flt = make_filter(name, **settings_for(name, {"gamma": world.filters.gamma}))
+def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str, flt: Any = None
+               ) -> AlignScores:
+    """Filter ``name`` over the log (module docstring), scored against the truth;
+    ``flt`` replaces the filter the world's settings make (the γ sweep)."""
+    flt = world.filters.make(name) if flt is None else flt
     x0, P0 = initial_belief(world, log)
     M = log.n_epochs
     rec = BeliefRecorder.empty(M, N_STATE, N_STATE)
     trans = aqe_transition(world, log)
     meas = velocity_measurement(world.filters.velocity_sigma_mps)
 
+    falls = [0]
+
     def correct(j: int, belief: Belief) -> tuple[Belief, list]:
         post, innovation = flt.update(belief, meas, log.sins_v[j])
+        falls[0] += innovation.hinf_fallback
         return post, [innovation]
 
     out = run_epochs(flt, flt.init(x0, Euclidean(N_STATE), cov=P0), M, correct_first=True,
@@ -66,12 +76,13 @@ def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str) -> AlignScor
     err, cov = misalignment_error(log.sins_q, rec.means[:, :4], rec.covs[:, :4, :4],
                                   log.truth_q)
     nees13 = nees_series(true_state(log) - rec.means, rec.covs)
-    return _scores(name, err, cov, nees13, nis, 3, out.time_s, M - 1, out.failure, world)
+    return _scores(name, err, cov, nees13, nis, 3, out.time_s, M - 1, out.failure, world,
+                   fallbacks=falls[0], updates=len(out.nis))
 
 
 def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_dof: int,
             time_s: float, cycles: int, failure: str | None, world: AlignmentWorld,
-            note: str | None = None) -> AlignScores:
+            note: str | None = None, fallbacks: int = 0, updates: int = 0) -> AlignScores:
     """Assemble :class:`AlignScores`; a final error beyond the world's bound is a
     divergence with its reason."""
     with np.errstate(invalid="ignore"):
@@ -82,7 +93,8 @@ def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_do
         failure = (f"final level misalignment error {size:.3g} deg exceeds "
                    f"{np.degrees(world.scoring.divergence_rad):.3g} deg")
     return AlignScores(name, err, sigma, nees_series(err, cov), nees13,
-                       nees_series(err[:, :2], cov[:, :2, :2]), cycles, note, nis=nis,
+                       nees_series(err[:, :2], cov[:, :2, :2]), cycles, note, fallbacks,
+                       updates, nis=nis,
                        nis_dof=nis_dof, time_s=time_s, diverged=failure is not None,
                        failure=failure)
 
@@ -101,6 +113,13 @@ def run_reference(world: AlignmentWorld, log: AlignmentLog) -> AlignScores:
                    series.time_s, len(idx) - 1, series.failure, world, series.marginals_failure)
 
 
+@dataclass(frozen=True)
+class AlignOutcome(RunOutcome):
+    """A run's outcome and its share of the γ sweep (:mod:`slam.kinds.alignment.sweep`)."""
+
+    sweep: tuple[SweepCell, ...] = ()
+
+
 def run_once(world: AlignmentWorld, run: int, seed_seq: np.random.SeedSequence,
              filters: Sequence[str], keep_tracks: bool = False, reference: bool = True
              ) -> RunOutcome:
@@ -113,35 +132,9 @@ def run_once(world: AlignmentWorld, run: int, seed_seq: np.random.SeedSequence,
     scores = {n: run_filter(world, log, n) for n in filters}
     if reference and run < world.reference.runs:
         scores[REFERENCE] = run_reference(world, log)
+    cells = (sweep_run(world, log, np.array(log.times), run_filter)
+             if run < world.sweep.runs else ())
     if not keep_tracks:
-        return RunOutcome(run, scores)  # type: ignore[arg-type]
-    return RunOutcome(run, scores, dict(scores), np.array(log.truth_q),  # type: ignore[arg-type]
-                      None, np.array(log.times))
-
-
-def summarize(world: AlignmentWorld, outcomes: list[RunOutcome], filters: list[str],
-              runs: int, seed: int) -> dict[str, Any]:
-    """The ``summary.json`` dict of an alignment campaign (keys explained in the report)."""
-    times = np.arange(world.n_epochs) / world.filters.rate_hz
-    factor = world.scoring.settle_factor
-
-    def entry(name: str) -> dict[str, Any]:
-        return summarize_scores([o.scores[name] for o in outcomes if name in o.scores],
-                                times, factor)
-
-    reference = ({REFERENCE: entry(REFERENCE)}
-                 if any(REFERENCE in o.scores for o in outcomes) else {})
-    w = world.wind
-    return {
-        "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
-        "filter_rate_hz": world.filters.rate_hz, "imu_rate_hz": world.imu.rate_hz,
-        "duration_s": world.duration_s, "gamma": world.filters.gamma,
-        "settle_factor": factor, "reference_runs": min(runs, world.reference.runs),
-        "low_frequency_wind_mps": [w.amplitude_x_mps[2], w.amplitude_y_mps[2]],
-        "initial_misalignment_deg": np.degrees(world.filters.initial_misalignment_rad).tolist(),
-        "axes": "East, North, azimuth (Up): residual misalignment Log(q_est ⊗ q_true*)",
-        "limits": limits(world),
-        "filters": {n: entry(n) for n in filters},
-        "reference": reference,
-        "paper": world.paper,
-    }
+        return AlignOutcome(run, scores, sweep=cells)  # type: ignore[arg-type]
+    return AlignOutcome(run, scores, dict(scores), np.array(log.truth_q),  # type: ignore[arg-type]
+                        None, np.array(log.times), sweep=cells)

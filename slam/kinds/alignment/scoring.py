@@ -45,8 +45,10 @@ class AlignScores(EstimatorRun):
     err, sigma : (M, 3) residual misalignment and own σ; nees : (M,) 3-dof; nees13 : (M,)
     whole error state; nees_level : (M,) 2-dof, the level axes (East, North) alone;
     cycles : predict + update cycles; note: why the covariance is missing (the
-    smoother's marginals), if it is.  The :class:`~slam.results.EstimatorRun` fields:
-    nis : (M,) with ``nis_dof``; time_s over the ``cycles`` (the smoother: its solve).
+    smoother's marginals), if it is; fallbacks : H∞ updates whose existence condition
+    failed (the Kalman update was taken) among ``updates``.  The
+    :class:`~slam.results.EstimatorRun` fields: nis : (M,) with ``nis_dof``; time_s over
+    the ``cycles`` (the smoother: its solve).
     """
 
     name: str
@@ -57,6 +59,8 @@ class AlignScores(EstimatorRun):
     nees_level: Array
     cycles: int
     note: str | None = None
+    fallbacks: int = 0
+    updates: int = 0
 
 
 def finite_mean(x: Array, axis: int | tuple[int, ...] | None = None) -> Array:

@@ -17,8 +17,11 @@ File layout::
     [imu]      rate_hz, gyro_bias_deg_s, gyro_white_deg_s, gyro_markov_deg_s,
                gyro_markov_tau_s, accel_bias_g, accel_white_g, accel_markov_g,
                accel_markov_tau_s
-    [filters]  names, rate_hz, gamma, velocity_sigma_mps, initial_misalignment_deg,
+    [filters]  names, rate_hz, velocity_sigma_mps, initial_misalignment_deg,
                initial_sigma_deg
+    [filters.unscented] alpha, beta, kappa (ukf, uthinf)
+    [filters.hinf]      gamma, on_failure (uthinf, srchinf)
+    [sweep]    gammas, filters, runs (optional: the H∞ γ sweep)
     [reference] key_interval_s, position_sigma_m, runs
     [scoring]  settle_factor, divergence_deg
     [paper]    free-form: the paper's claims, passed through to summary.json
@@ -36,6 +39,7 @@ from typing import Any
 import worlds.common as wc
 import worlds.schema as ws
 from estimators.filters import FILTER_NAMES, ROBUST_FILTER_NAMES
+from estimators.hinf import MIN_GAMMA
 from nav.strapdown import G0
 from worlds import limits
 from worlds.units import DEG
@@ -45,6 +49,8 @@ NAMES = tuple(n for n in FILTER_NAMES + ROBUST_FILTER_NAMES if n != "hommukf")
 """Every filter but ``hommukf``: its Julier set (κ = 3 - n, centre weight 1 - 13/3) gives
 an indefinite covariance at the first prediction through the normalised rotation
 R(Q/|Q|) of the AQE model (:mod:`slam.kinds.alignment.models`), a rational map of δQ."""
+HINF_NAMES = ROBUST_FILTER_NAMES
+"""The H∞ filters a γ sweep runs."""
 
 
 @dataclass(frozen=True)
@@ -93,17 +99,32 @@ class ImuSpec(wc.Sampled):
 
 
 @dataclass(frozen=True)
-class AlignFilterSpec(wc.JointOnly):
-    """Filters, their rate, the H∞ bound, the zero-velocity reference's σ and the
-    initial misalignment (East, North, Up rotation vector of the SINS's error) with the
-    prior σ."""
+class AlignFilterSpec(wc.JointOnly, wc.TunedFilters):
+    """Filters, their rate, the zero-velocity reference's σ and the initial misalignment
+    (East, North, Up rotation vector of the SINS's error) with the prior σ; the settings
+    tables (``[filters.unscented]``, ``[filters.hinf]``: :class:`worlds.common.TunedFilters`)."""
 
     names: tuple[str, ...]
     rate_hz: float
-    gamma: float
     velocity_sigma_mps: float
     initial_misalignment_rad: tuple[float, float, float]
     initial_sigma_rad: tuple[float, float, float]
+
+    @property
+    def gamma(self) -> float | None:
+        """The stated H∞ bound (``None`` when no H∞ filter runs and none is stated)."""
+        return (self.hinf or {}).get("gamma")
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """The H∞ γ sweep: each of ``filters`` at every bound in ``gammas`` on the first
+    ``runs`` runs' logs, with ``on_failure = "kalman"`` (an update whose Riccati existence
+    condition fails is the Kalman update for that step, counted)."""
+
+    gammas: tuple[float, ...] = ()
+    filters: tuple[str, ...] = ()
+    runs: int = 0
 
 
 @dataclass(frozen=True)
@@ -120,10 +141,13 @@ class ReferenceSpec:
 @dataclass(frozen=True)
 class ScoringSpec:
     """Settling: the error stays within ``settle_factor`` × its final value; a run whose
-    final misalignment error exceeds ``divergence_rad`` counts as diverged."""
+    final misalignment error exceeds ``divergence_rad`` counts as diverged; the ranking's
+    per-run MSE is over the epochs from ``settled_from_s`` on (the paper's "settled
+    within 50 s")."""
 
     settle_factor: float
     divergence_rad: float
+    settled_from_s: float = 50.0
 
 
 @dataclass(frozen=True)
@@ -138,6 +162,7 @@ class AlignmentWorld(wc.WorldBase):
     filters: AlignFilterSpec
     reference: ReferenceSpec
     scoring: ScoringSpec
+    sweep: SweepSpec = SweepSpec()
 
     samples_per_epoch = wc.per_epoch("imu", "filters", "IMU samples per filter interval")
     n_epochs = wc.epoch_count("filters", "filter epochs, the first at t = 0")
@@ -190,11 +215,11 @@ WORLD = wc.world(KIND, AlignmentWorld, {
     "filters": ws.Section({
         "names": ws.StringList(NAMES),
         "rate_hz": ws.Number(ws.Interval(0.1, 1000.0)),
-        "gamma": ws.Number(ws.Interval(1e-3, math.inf), default=5.0),
         "velocity_sigma_mps": ws.Sigma(ws.positive(10.0)),
         "initial_misalignment_deg": ws.Vector(3, ws.Interval(-60.0, 60.0), scale=DEG)
         .to("initial_misalignment_rad"),
         "initial_sigma_deg": wc.attitude_sigma("initial_sigma_rad", 60.0),
+        **wc.settings_tables(),
     }, into=AlignFilterSpec),
     "reference": ws.Section({
         "key_interval_s": ws.Number(ws.positive(100.0), default=1.0),
@@ -204,7 +229,13 @@ WORLD = wc.world(KIND, AlignmentWorld, {
     "scoring": ws.Section({
         "settle_factor": ws.Number(ws.Interval(1.0, 10.0), default=1.2),
         "divergence_deg": wc.divergence(20.0),
+        "settled_from_s": ws.Number(ws.Interval(0.0, 3600.0), default=50.0),
     }, into=ScoringSpec),
+    "sweep": ws.Section({
+        "gammas": ws.NumberList(ws.Interval(MIN_GAMMA, math.inf), max_len=20, default=tuple),
+        "filters": ws.StringList(HINF_NAMES, default=tuple),
+        "runs": ws.Integer(ws.Interval(0, 100_000), default=0),
+    }, required=False, into=SweepSpec),
 }, paper=PAPER)
 SCHEMA = WORLD.schema
 
@@ -217,6 +248,7 @@ RULES = (
     wc.whole_periods_of("filters.rate_hz", "filter", key="reference.key_interval_s"),
     ws.Rule("reference.key_interval_s", "duration_s", ws.whole_times,
             "must divide {other} ({limit:g}) a whole number of times"),
+    wc.below("scoring.settled_from_s", "duration_s"),
 )
 """Checks across keys, in the order they are made; the smoother's keys fall on filter
 epochs and divide the run (the last two)."""
@@ -237,5 +269,12 @@ def work(w: AlignmentWorld) -> Iterator[limits.Size]:
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> AlignmentWorld:
-    """Validate a parsed ``alignment`` TOML document and build its :class:`AlignmentWorld`."""
-    return wc.parse_checked(WORLD, RULES, data, name, source)
+    """Validate a parsed ``alignment`` TOML document and build its :class:`AlignmentWorld`:
+    every filter listed (and the sweep's) must find its settings table stated."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    ws.check_rules(RULES, v, root)
+    sweep = v.get("sweep") or {}
+    wc.check_settings(v["filters"], list(v["filters"]["names"]) + list(sweep.get("filters", ())),
+                      root.child("filters"))
+    return ws.build(WORLD, v, name=name, source=source)

@@ -15,7 +15,8 @@ initial errors from the initial covariances, and runs on it
 * the GTSAM smoother (:mod:`slam.kinds.fixed_wing.reference`) on the IMU and GNSS data,
   with a state at the INS filters' epochs.
 
-Every filter comes from :func:`estimators.make_filter` and runs in the one loop
+Every filter is built from the world's stated settings (``[filters.unscented]`` for the
+UKFs) and runs in the one loop
 (:func:`estimators.loop.run_epochs`); numerical failures are counted divergences.
 """
 
@@ -27,12 +28,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import make_filter
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
 from nav.euler import euler_zyx_errors, q_to_euler_zyx
 from nav.quaternion import qexp, qmul
 from slam.failures import run_reference
+from slam.kinds.fixed_wing.decision import decide_fixed_wing
 from slam.kinds.fixed_wing.ea import ANGLES, accel_mag_angles, ea_measurement, ea_transition
 from slam.kinds.fixed_wing.ea import SPACE as EA_SPACE
 from slam.kinds.fixed_wing.ins import SPACE as INS_SPACE
@@ -109,7 +110,7 @@ def ins_noise(world: FixedWingWorld) -> InsNoise:
 def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     """EA filter ``name`` (``ea-<filter>``) over the log (module docstring)."""
     w = log.world
-    flt = make_filter(name.removeprefix("ea-"))
+    flt = w.filters.make(name)
     gyro, z = ea_observations(log)
     J, tau = z.shape[0], log.n_ea * log.dt
     meas = ea_measurement(w.ea.roll_pitch_sigma_rad, w.ea.heading_sigma_rad)
@@ -139,7 +140,7 @@ def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
 def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     """INS filter ``name`` (``ins-<filter>``) over the log (module docstring)."""
     w = log.world
-    flt = make_filter(name.removeprefix("ins-"))
+    flt = w.filters.make(name)
     n, G, every = log.n_ins, log.ins_epochs, log.fix_every
     noise = ins_noise(w)
     meas = gnss_measurement(w.gnss.horizontal_sigma_m, w.gnss.vertical_sigma_m,
@@ -177,8 +178,11 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
     ep, ev = means[:, 0:3] - tr.p[samples], means[:, 3:6] - tr.v[samples]
     nees = nav_nees(ep, ev, qh, tr.q[samples], covs[:, :9, :9])
     div, why = final_check(err, diverged, failure, log.world.scoring.divergence_rad)
+    with np.errstate(invalid="ignore"):
+        sp = np.sqrt(np.diagonal(covs[:, 0:3, 0:3], axis1=1, axis2=2))
+        sv = np.sqrt(np.diagonal(covs[:, 3:6, 3:6], axis1=1, axis2=2))
     return FwScores(name, samples * log.dt, err, sig, ep, ev, *segment_masks(log.world, samples),
-                    nees, 9, cycles, note, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
+                    nees, 9, cycles, note, sp, sv, nis=nis, nis_dof=6, time_s=time_s, diverged=div,
                     failure=why)
 
 
@@ -223,11 +227,14 @@ def summarize(world: FixedWingWorld, outcomes: list[RunOutcome], filters: list[s
     reference = {}
     if any(REFERENCE in o.scores for o in outcomes):
         reference = {REFERENCE: entry(REFERENCE)}
-    return {
+    summary = {
         "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
         "duration_s": world.duration_s, "imu_rate_hz": world.imu.rate_hz,
         "ea_rate_hz": world.ea.update_rate_hz, "gnss_rate_hz": world.gnss.rate_hz,
         "ins_epoch_s": ins_samples(world) * world.imu.dt_s,
+        "initial_heading_sigma_deg": {"ea": float(np.degrees(world.ea.initial_sigma_rad[2])),
+                                      "ins": float(np.degrees(
+                                          world.ins.initial_attitude_sigma_rad[2]))},
         "euler_sequence": "Z-Y-X (yaw, pitch, roll); body forward-left-up, navigation ENU",
         "flight": flight_facts(world),
         "accelerometer_angle_error_deg": accelerometer_angle_errors(world),
@@ -235,3 +242,4 @@ def summarize(world: FixedWingWorld, outcomes: list[RunOutcome], filters: list[s
         "reference": reference,
         "paper": world.paper,
     }
+    return decide_fixed_wing(world, outcomes, filters, summary)

@@ -38,7 +38,8 @@ class FwScores(EstimatorRun):
     err_att, sig_att : (M, 3); err_pos, err_vel : (M, 3) or None (EA filters);
     turn, accel : (M,) True at turn / accelerating epochs; nees : (M,) with ``nees_dof``;
     cycles : predict + update cycles; note : why the covariance is missing (the smoother's
-    marginals), if it is.  The :class:`~slam.results.EstimatorRun` fields:
+    marginals), if it is; sig_pos, sig_vel : (M, 3) own σ of err_pos, err_vel or None.
+    The :class:`~slam.results.EstimatorRun` fields:
     nis per update (``nis_dof`` each); time_s over the ``cycles`` (smoother: its solve).
     """
 
@@ -54,6 +55,8 @@ class FwScores(EstimatorRun):
     nees_dof: int
     cycles: int
     note: str | None = None
+    sig_pos: Array | None = None
+    sig_vel: Array | None = None
 
 
 def nav_nees(p_err: Array, v_err: Array, qh: Array, q_true: Array, cov9: Array) -> Array:

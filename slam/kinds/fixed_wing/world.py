@@ -24,6 +24,7 @@ Units are spelled in every key and converted to SI radians on load.  File layout
     [ins]         initial_attitude_sigma_deg, initial_velocity_sigma_mps,
                   initial_position_sigma_m
     [filters]     names ("ea-<filter>" / "ins-<filter>")
+    [filters.unscented] alpha, beta, kappa (ea-ukf, ins-ukf)
     [scoring]     turn_rate_deg_s (a turn: |heading rate| above it), accel_mps2 (an
                   accelerating epoch outside turns), divergence_deg
     [paper]       free-form: the paper's Table 1, passed through to summary.json
@@ -127,7 +128,10 @@ class InsSpec:
 
 
 @dataclass(frozen=True)
-class FilterSpec(wc.JointOnly):
+class FilterSpec(wc.JointOnly, wc.TunedFilters):
+    """The estimators to run and their settings tables (``[filters.unscented]`` for
+    ``ea-ukf`` / ``ins-ukf``: :class:`worlds.common.TunedFilters`)."""
+
     names: tuple[str, ...]
 
 
@@ -221,7 +225,8 @@ WORLD = wc.world(KIND, FixedWingWorld, {
         "initial_velocity_sigma_mps": ws.Sigma(ws.positive(100.0)),
         "initial_position_sigma_m": ws.Sigma(ws.positive(1_000.0)),
     }, into=InsSpec),
-    "filters": ws.Section({"names": ws.StringList(FILTERS)}, into=FilterSpec),
+    "filters": ws.Section({"names": ws.StringList(FILTERS), **wc.settings_tables()},
+                          into=FilterSpec),
     "scoring": ws.Section({
         "turn_rate_deg_s": ws.Number(ws.positive(30.0), default=1.0, scale=DEG)
         .to("turn_rate_rad_s"),
@@ -283,4 +288,5 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     v = ws.read_table(data, SCHEMA, root)
     ws.check_rules(RULES, v, root)
     _check_flight(v, root)
+    wc.check_settings(v["filters"], v["filters"]["names"], root.child("filters"))
     return ws.build(WORLD, v, name=name, source=source)

@@ -27,7 +27,9 @@ def test_settle_time() -> None:
 
 def test_a_small_campaign_through_the_command_line(tmp_path: Path) -> None:
     text = (files("worlds") / "alignment.toml").read_text(encoding="utf-8")
-    for old, new in (("duration_s = 200.0", "duration_s = 3.0"), ("runs = 50", "runs = 2")):
+    for old, new in (("duration_s = 200.0", "duration_s = 3.0"), ("runs = 50", "runs = 2"),
+                     ("settled_from_s = 50.0", "settled_from_s = 1.0"),
+                     ("gammas = [0.3, 0.5, 1.0, 2.0, 5.0]", "gammas = [0.3, 5.0]")):
         assert text.count(old) == 1
         text = text.replace(old, new)
     path = tmp_path / "short-alignment.toml"
@@ -47,8 +49,24 @@ def test_a_small_campaign_through_the_command_line(tmp_path: Path) -> None:
     assert s["limits"]["azimuth_observable"] is False
     assert 0.4 < s["limits"]["tilt_limit_arcmin"] < 0.6
     report = (out / "report.md").read_text(encoding="utf-8")
-    for title in ("## Results", "## Paper vs ours", "## Theoretical limits"):
+    for title in ("## Results", "## Paper vs ours", "## Theoretical limits", "## H∞ γ sweep",
+                  "## The paper's ordering, tested"):
         assert title in report
+    # the decision first: the headline, then a ranking per headline metric, the settings
+    assert report.index("## Decision") < report.index("## Ranking: level") < report.index(
+        "## Ranking: azimuth") < report.index("## Filter settings") < report.index("## Results")
+    assert set(s["ranking"]) == {"level", "azimuth"} and s["headline"].startswith("Level")
+    assert set(s["ranking"]["level"]["rows"]) == FILTERS
+    assert s["ranking"]["level"]["reference"]["name"] == "gtsam"
+    assert s["filters"]["uthinf"]["settings"] == {"alpha": 1e-3, "beta": 2.0, "kappa": 0.0,
+                                                  "gamma": 5.0, "on_failure": "kalman"}
+    assert "| uthinf | α = 0.001, β = 2, κ = 0, γ = 5, on failure: kalman |" in report
+    assert s["paper_ordering"][0]["better"] == "uthinf" and s["paper_ordering"][0]["runs"] == 2
+    assert [r["gamma"] for r in s["gamma_sweep"]["rows"]] == [0.3, 5.0, 0.3, 5.0]
+    # the smoother's cost per run, in its own column
+    assert "| gtsam |" in report and "per run only" in report and "| s/run |" in report
+    assert "rank" in res.output and s["headline"].split(";")[0][:60] in " ".join(
+        res.output.split())
     assert "not observable" in res.output and "uthinf" in res.output
     table = res.output.split("\n\n")[0].splitlines()
     assert table[0].split()[:4] == ["estimator", "E′", "N′", "az′"] and "in band" in table[0]

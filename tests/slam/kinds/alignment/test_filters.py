@@ -38,7 +38,8 @@ def test_noise_free_log_is_tracked_to_round_off() -> None:
 
 def test_uthinf_with_infinite_gamma_is_the_ukf(noisy) -> None:
     world, log = noisy
-    inf = replace(world, filters=replace(world.filters, gamma=math.inf))
+    inf = replace(world, filters=replace(world.filters, hinf={**world.filters.hinf,
+                                                              "gamma": math.inf}))
     a, b = run_filter(inf, log, "uthinf"), run_filter(inf, log, "ukf")
     assert not a.diverged and not b.diverged
     assert np.max(np.abs(a.err - b.err)) < 1e-9

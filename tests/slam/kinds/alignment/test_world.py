@@ -71,12 +71,12 @@ def test_a_malformed_world_names_file_key_and_rule(overrides, key, rule) -> None
 
 def test_the_command_line_refuses_a_malformed_world_and_writes_nothing(tmp_path) -> None:
     text = (files("worlds") / "alignment.toml").read_text(encoding="utf-8")
-    assert text.count("\ngamma = 5.0 ") == 1
+    assert text.count("\ngamma = 5.0\n") == 1
     path = tmp_path / "bad.toml"
-    path.write_text(text.replace("\ngamma = 5.0 ", "\ngamma = -1.0 "), encoding="utf-8")
+    path.write_text(text.replace("\ngamma = 5.0\n", "\ngamma = -1.0\n"), encoding="utf-8")
     out = tmp_path / "out"
     res = CliRunner().invoke(slam.cli.main, ["run", str(path), "--out", str(out)])
-    assert res.exit_code == 2 and "[filters] gamma = -1.0" in res.output, res.output
+    assert res.exit_code == 2 and "[filters.hinf] gamma = -1.0" in res.output, res.output
     assert not out.exists()
 
 

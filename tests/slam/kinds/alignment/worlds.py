@@ -22,9 +22,10 @@ def alignment_doc(**overrides: Any) -> dict[str, Any]:
 
 
 def alignment_world(duration_s: float = 5.0, **overrides: Any) -> AlignmentWorld:
-    """The bundled world cut to ``duration_s``."""
-    return world_from_dict(alignment_doc(**{"duration_s": duration_s, **overrides}),
-                           name="test-alignment")
+    """The bundled world cut to ``duration_s`` (its ranking scored over the second half)."""
+    return world_from_dict(alignment_doc(**{"duration_s": duration_s,
+                                            "scoring.settled_from_s": duration_s / 2,
+                                            **overrides}), name="test-alignment")
 
 
 NO_ERRORS = {f"imu.{k}": 0.0 for k in (

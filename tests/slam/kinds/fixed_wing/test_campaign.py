@@ -44,4 +44,23 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
     assert "UKF (paper)" in res.output
     for fig in ("attitude_errors.png", "nav_errors.png", "nees.png"):
         assert (out / fig).stat().st_size > 10_000
-    assert "Table 1: paper vs ours" in (out / "report.md").read_text(encoding="utf-8")
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert "Table 1: paper vs ours" in report
+    # the decision first: the headline, the rankings (position: the INS filters only), the
+    # settings, the paper's orderings tested; the smoother's cost in its own column
+    order = ["## Decision", "## Ranking: INS position", "## Ranking: attitude",
+             "## Ranking: heading", "## Filter settings", "## The paper's ordering, tested",
+             "## Table 1"]
+    assert [report.index(t) for t in order] == sorted(report.index(t) for t in order)
+    assert set(s["ranking"]["position"]["rows"]) == {"ins-ckf", "ins-ukf"}
+    assert set(s["ranking"]["heading"]["rows"]) == set(FILTERS)
+    assert s["ranking"]["position"]["reference"]["name"] == "gtsam"
+    assert s["headline"].startswith("INS position (3-D): ins-")
+    assert s["filters"]["ins-ukf"]["settings"] == {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}
+    assert s["filters"]["ea-ckf"]["settings_text"] == ""
+    assert [(o["metric"], o["better"], o["worse"]) for o in s["paper_ordering"]] == [
+        ("position", "ins-ckf", "ins-ukf"), ("heading", "ins-ckf", "ins-ukf")]
+    assert "| ins-ukf | α = 1, β = 0, κ = 3 − n |" in report
+    assert "| ms/cycle | s/run |" in report and "| per run only |" in report
+    assert "rank" in res.output and "ins-ckf beats ins-ukf" in res.output
+    assert max(len(line) for line in text.splitlines()) <= 100
