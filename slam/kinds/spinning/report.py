@@ -1,10 +1,13 @@
 """Tables and sections of a ``spinning`` campaign's report (from ``summary.json`` alone).
 
+* Decision (first): the headline, the paired rankings by pitch, yaw and blind-area roll
+  (:mod:`slam.render.decision`) and the filters' settings.
 * Results: pitch / yaw mean absolute error and RMSE, the implied roll's RMSE outside and
   inside the geomagnetic blind area, consistency, H∞ existence failures, timing.
 * Paper vs ours: [Spin SR-CH∞KF] publishes no error numbers, only Table 2's flight and
   its figures' rankings; both are set next to ours.
-* The H∞ existence check per γ, and the noise-mismatch sweep (one table per noise shape).
+* The H∞ existence check per γ, and the noise-mismatch sweeps (one table per mismatch -
+  gyro and magnetometer together, gyro only, magnetometer only - and noise shape).
 * How to read this: what differs from the paper and why.
 
 The figures are :mod:`slam.kinds.spinning.figures`; :data:`REPORT` is the kind's
@@ -18,6 +21,7 @@ from typing import Any
 
 from slam.kind import Deferred
 from slam.render import tables
+from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
@@ -29,9 +33,19 @@ def _fallback_cell(name: str, e: dict[str, Any]) -> str:
 
 
 def _time_cell(name: str, e: dict[str, Any]) -> str:
-    if name == REFERENCE:
-        return f"{tables.num(e.get('time_s'), '.2f')} s/run"
+    if name == REFERENCE:  # a batch solve: its cost is per run (smoother_cost)
+        return tables.MISSING
     return tables.num(e.get("time_per_cycle_s"), ".3f", 1e3)
+
+
+def smoother_cost(s: dict[str, Any]) -> str:
+    """The GTSAM smoother's cost in its own unit: seconds per run (solve, marginals)."""
+    r = (s.get("reference") or {}).get(REFERENCE)
+    if not r:
+        return ""
+    return (f"The GTSAM smoother costs {tables.num(r.get('time_s'), '.2f')} s per run to "
+            f"solve (EKF start + Levenberg-Marquardt) and "
+            f"{tables.num(r.get('marginals_time_s'), '.2f')} s for its marginals.")
 
 
 RESULTS = tables.Table((
@@ -81,7 +95,7 @@ def _results_text(s: dict[str, Any]) -> str:
             "ANEES is the run-averaged 2-dof pitch/yaw NEES over 2 against the 95 % band of "
             f"one epoch; 'H∞ fallbacks' are updates whose existence condition failed (γ = "
             f"{tables.num(s.get('gamma_rad'), 'g')} rad). Cycle times are wall-clock inside the "
-            "campaign's workers. " + tables.consistency_rule())
+            "campaign's workers. " + smoother_cost(s) + " " + tables.consistency_rule())
 
 
 def _best_worst(s: dict[str, Any], key: str) -> tuple[str, str]:
@@ -127,9 +141,18 @@ def _gamma_text(g: Any) -> str:
     return "∞" if g is None or (isinstance(g, float) and math.isinf(g)) else format(g, "g")
 
 
+def _sweep_groups(sweep: dict[str, Any]) -> list[tuple[str, str]]:
+    """The sweep's (scale, distribution) pairs in table order."""
+    return [(sc, d) for sc in sweep.get("scales", []) for d in sweep.get("distributions", [])]
+
+
+SCALE_TEXT = {"both": "gyro and magnetometer", "gyro": "gyro only",
+              "magnetometer": "magnetometer only"}
+
+
 def existence_rows(s: dict[str, Any]) -> list[list[str]]:
     """H∞ existence failures per filter and γ over the sweep's logs, all factors summed per
-    distribution (fallbacks / updates), then the campaign's own H∞ runs."""
+    mismatch and distribution (fallbacks / updates), then the campaign's own H∞ runs."""
     sweep = s.get("sweep") or {}
     rows = []
     for name, entry in (s.get("filters") or {}).items():
@@ -138,17 +161,18 @@ def existence_rows(s: dict[str, Any]) -> list[list[str]]:
                          "campaign noise", _fallback_cell(name, entry),
                          str(entry.get("hinf_runs_with_fallbacks", tables.MISSING)),
                          entry.get("hinf_on_failure", tables.MISSING)])
-    for dist in sweep.get("distributions", []):
+    for scale, dist in _sweep_groups(sweep):
         for row in sweep.get("rows", []):
             cells = [c for c in sweep.get("cells", [])
-                     if c["row"] == row and c["distribution"] == dist
+                     if c["row"] == row and c["distribution"] == dist and c["scale"] == scale
                      and c.get("gamma_rad") is not None]
             if not cells:
                 continue
             falls = sum(c["fallbacks"] for c in cells)
             per_factor = ", ".join(f"{c['factor']:g}×: {c['fallbacks']}" for c in cells)
-            rows.append([row, f"sweep, {dist}", f"{falls}/{sum(c['updates'] for c in cells)}",
-                         per_factor, "Kalman update for that step"])
+            rows.append([row, f"sweep, {SCALE_TEXT.get(scale, scale)}, {dist}",
+                         f"{falls}/{sum(c['updates'] for c in cells)}", per_factor,
+                         "Kalman update for that step"])
     return rows
 
 
@@ -157,17 +181,18 @@ EXISTENCE_HEADER = ("filter", "noise", "failed / updates", "by factor (or runs h
 
 
 def sweep_sections(s: dict[str, Any]) -> list[Section]:
-    """One table per noise shape: rows the sweep's filters (H∞ per γ), columns the factors;
-    cells ``pitch / yaw RMSE (°)`` and the existence failures."""
+    """One table per mismatch (scale) and noise shape: rows the sweep's filters (H∞ per
+    γ), columns the factors; cells ``pitch / yaw RMSE (°)`` and the existence failures."""
     sweep = s.get("sweep") or {}
     factors = sweep.get("factors", [])
     out = []
-    for dist in sweep.get("distributions", []):
+    for scale, dist in _sweep_groups(sweep):
+        mine = [c for c in sweep.get("cells", [])
+                if c["distribution"] == dist and c["scale"] == scale]
         header = ["filter"] + [f"{f:g}× pitch / yaw (°)" for f in factors]
         rows = []
         for row in sweep.get("rows", []):
-            cells = {c["factor"]: c for c in sweep.get("cells", [])
-                     if c["row"] == row and c["distribution"] == dist}
+            cells = {c["factor"]: c for c in mine if c["row"] == row}
             line = [row]
             for f in factors:
                 c = cells.get(f)
@@ -179,14 +204,27 @@ def sweep_sections(s: dict[str, Any]) -> list[Section]:
                 line.append(f"{tables.num(c['rmse_pitch_deg'], '.3f')} / "
                             f"{tables.num(c['rmse_yaw_deg'], '.3f')}{extra}")
             rows.append(line)
-        logs = {c["logs"] for c in sweep.get("cells", []) if c["distribution"] == dist}
-        text = (f"True noise = factor × assumed on {sweep.get('scale', '?')} "
+        logs = {c["logs"] for c in mine}
+        text = (f"True noise = factor × assumed on the {SCALE_TEXT.get(scale, scale)} "
                 f"({dist}); {'/'.join(map(str, sorted(logs)))} log(s) per factor, every filter "
-                "on the same logs and prior draws. [n fb] = updates whose H∞ existence "
-                "condition failed (then the Kalman update was used); (n div) = diverged logs, "
-                "left out of the RMSE. γ=∞ rows are the Kalman twins' (srckf, ukf).")
-        out.append(Section(f"Noise-mismatch sweep ({dist})", header, rows, text))
+                "on the same logs and prior draws. " + MISMATCH_TEXT.get(scale, "") +
+                " [n fb] = updates whose H∞ existence condition failed (then the Kalman update "
+                "was used); (n div) = diverged logs, left out of the RMSE. γ=∞ rows are the "
+                "Kalman twins' (srckf, ukf).")
+        out.append(Section(f"Noise-mismatch sweep: {SCALE_TEXT.get(scale, scale)} ({dist})",
+                           header, rows, text))
     return out
+
+
+MISMATCH_TEXT = {
+    "both": "Scaling both noises leaves the Kalman gain unchanged (only the prior becomes "
+            "relatively tighter): the weakest mismatch.",
+    "gyro": "The filters trust the gyro (and eq. 3's increments) too much: the gain on the "
+            "magnetometer is too small.",
+    "magnetometer": "The filters trust the magnetometer too much: its axial reading gets too "
+                    "much gain, and the roll of eq. 7-8 (and so eq. 3's resolution) is noisier "
+                    "than assumed.",
+}
 
 
 PAPER_TEXT = ("[Spin SR-CH∞KF] publishes no error numbers: its Fig. 5-8 are described in "
@@ -233,11 +271,13 @@ def prior_note(s: dict[str, Any]) -> str:
 
 
 def hinf_verdict(s: dict[str, Any]) -> str:
-    """A sentence from the sweep: SR-CH∞KF's best finite γ against SRCKF, per factor."""
+    """A sentence from the sweeps: SR-CH∞KF's best finite γ against SRCKF, per mismatch,
+    distribution and factor."""
     sweep = s.get("sweep") or {}
     parts = []
-    for dist in sweep.get("distributions", []):
-        cells = [c for c in sweep.get("cells", []) if c["distribution"] == dist and c["logs"]]
+    for scale, dist in _sweep_groups(sweep):
+        cells = [c for c in sweep.get("cells", []) if c["distribution"] == dist
+                 and c["scale"] == scale and c["logs"]]
         for f in sweep.get("factors", []):
             base = next((c for c in cells if c["factor"] == f and c["row"] == "srckf"), None)
             hinf = [c for c in cells if c["factor"] == f and c["filter"] == "srchinf"
@@ -247,20 +287,23 @@ def hinf_verdict(s: dict[str, Any]) -> str:
             best = min(hinf, key=lambda c: c["rmse_pitch_deg"] + c["rmse_yaw_deg"])
             dp = 100 * (best["rmse_pitch_deg"] / base["rmse_pitch_deg"] - 1)
             dy = 100 * (best["rmse_yaw_deg"] / base["rmse_yaw_deg"] - 1)
-            parts.append(f"{dist} {f:g}×: best {best['row']} {dp:+.1f} % pitch, "
-                         f"{dy:+.1f} % yaw")
+            parts.append(f"{SCALE_TEXT.get(scale, scale)}, {dist} {f:g}×: best {best['row']} "
+                         f"{dp:+.1f} % pitch, {dy:+.1f} % yaw")
     if not parts:
         return ""
-    return ("SR-CH∞KF's best finite γ against SRCKF (RMSE change; negative = H∞ better): "
-            + "; ".join(parts) + ".")
+    return ("SR-CH∞KF's best finite γ against SRCKF in the sweeps (RMSE change over few logs, "
+            "no significance; negative = H∞ better): " + "; ".join(parts) + ".")
 
 
 def sections(s: dict[str, Any]) -> list[Section]:
     """The report's sections (module docstring)."""
-    out = [Section("Results", RESULTS.header, result_rows(s), _results_text(s)),
-           Section("Paper vs ours", ("", "paper", "ours"), paper_rows(s), PAPER_TEXT),
-           Section("H∞ existence check", EXISTENCE_HEADER, existence_rows(s),
-                   "Eq. 25/33's condition λmax(P_KF) < γ² (estimators.hinf) per update.")]
+    head, *decision = decision_sections(s) or [None]
+    out = [x for x in (head, Section("Results", RESULTS.header, result_rows(s),
+                                     _results_text(s)), *decision) if x is not None]
+    out += [
+        Section("Paper vs ours", ("", "paper", "ours"), paper_rows(s), PAPER_TEXT),
+        Section("H∞ existence check", EXISTENCE_HEADER, existence_rows(s),
+                "Eq. 25/33's condition λmax(P_KF) < γ² (estimators.hinf) per update.")]
     out += sweep_sections(s)
     out.append(Section("How to read this", text=" ".join(filter(None, [
         HOW_TO_READ, prior_note(s), hinf_verdict(s)]))))
@@ -278,8 +321,9 @@ def text_table(s: dict[str, Any]) -> str:
         row[5] = row[5].split(" [")[0]
     notes = ["errors: RMSE in degrees over all epochs and runs; roll: outside the blind area, "
              "blind: roll inside it; roll floor*: roll from the magnetometer with the true "
-             "pitch and yaw.", tables.band_note(s), *tables.failure_notes(s)]
-    return "\n".join([tables.plain_table(header, rows), *(tables.wrap(n) for n in notes if n)])
+             "pitch and yaw.", tables.band_note(s), smoother_cost(s), *tables.failure_notes(s)]
+    return "\n".join([tables.plain_table(header, rows), *(tables.wrap(n) for n in notes if n),
+                      "", decision_text(s)])
 
 
 REPORT = KindReport("spinning-projectile attitude campaign", sections,

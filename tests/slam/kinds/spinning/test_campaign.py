@@ -22,6 +22,7 @@ def _tiny_file(tmp_path: Path, **replace: str) -> Path:
     for old, new in {"sample_interval_s = 0.1": "sample_interval_s = 1.0",
                      "factors = [1.0, 2.0, 5.0, 10.0]": "factors = [1.0, 5.0]",
                      "gammas_rad = [0.2, 0.5, 2.0, 5.0, 10.0, inf]": "gammas_rad = [2.0, inf]",
+                     'scales = ["both", "gyro", "magnetometer"]': 'scales = ["both", "gyro"]',
                      "runs_per_cell = 4": "runs_per_cell = 1",
                      'filters = ["ukf", "ckf", "srckf", "svdckf", "ekf", "srchinf", "uthinf"]':
                      'filters = ["srckf", "srchinf"]',
@@ -40,7 +41,9 @@ def test_small_campaign_through_the_cli(tmp_path: Path) -> None:
                                              "--workers", "1", "--no-plots", "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert "srchinf" in res.output and "gtsam " in res.output and "in band" in res.output
-    assert max(map(len, res.output.split("\n\n")[0].splitlines())) <= 100  # the table
+    assert max(map(len, res.output.splitlines()[:-1])) <= 100  # tables, headline (not the path)
+    assert "yaw: paired ranking over 2 runs" in res.output and "ΔMSE vs best" in res.output
+    assert "settings of srchinf: γ = 2" in res.output and "s per run" in res.output
     s = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert s["kind"] == "spinning" and s["runs"] == 2 and set(s["filters"]) == FILTERS
     for name, e in [*s["filters"].items(), ("gtsam", s["reference"]["gtsam"])]:
@@ -57,14 +60,26 @@ def test_small_campaign_through_the_cli(tmp_path: Path) -> None:
     assert all(0.0 < v < 10.0 for v in s["prior_draws_mean_sq"].values())
     sweep = s["sweep"]
     assert sweep["logs_done"] == 2 and sweep["rows"] == ["srckf", "srchinf γ=2", "srchinf γ=∞"]
-    cells = {(c["factor"], c["row"]): c for c in sweep["cells"]}
-    for factor in (1.0, 5.0):
-        assert cells[factor, "srchinf γ=∞"]["rmse_pitch_deg"] == cells[factor, "srckf"][
-            "rmse_pitch_deg"]
-    assert cells[5.0, "srckf"]["rmse_pitch_deg"] > cells[1.0, "srckf"]["rmse_pitch_deg"]
+    assert sweep["scales"] == ["both", "gyro"]
+    cells = {(c["scale"], c["factor"], c["row"]): c for c in sweep["cells"]}
+    for factor in (1.0, 5.0):  # the first two logs: the "both" cells
+        assert cells["both", factor, "srchinf γ=∞"]["rmse_pitch_deg"] == cells[
+            "both", factor, "srckf"]["rmse_pitch_deg"]
+        assert cells["gyro", factor, "srckf"]["logs"] == 0
+    assert (cells["both", 5.0, "srckf"]["rmse_pitch_deg"]
+            > cells["both", 1.0, "srckf"]["rmse_pitch_deg"])
+    rank = s["ranking"]
+    assert set(rank) == {"pitch", "yaw", "roll_blind"} and rank["yaw"]["runs"] == 2
+    assert set(rank["pitch"]["rows"]) == FILTERS and "gtsam" not in rank["pitch"]["rows"]
+    assert rank["pitch"]["reference"]["name"] == "gtsam" and s["headline"].startswith("Pitch:")
+    assert s["filters"]["srchinf"]["settings"] == {"gamma": 2.0, "on_failure": "kalman"}
     report = (out / "report.md").read_text(encoding="utf-8")
-    for title in ("## Results", "## Paper vs ours", "## H∞ existence check",
-                  "## Noise-mismatch sweep (gaussian)", "## How to read this"):
+    titles = [line for line in report.splitlines() if line.startswith("## ")]
+    assert titles[:3] == ["## Decision", "## Results", "## Ranking: pitch: paired ranking "
+                          "over 2 runs (significant: ΔMSE > 2 s.e.; separated: > 3 s.e.)"]
+    for title in ("## Filter settings", "## Paper vs ours", "## H∞ existence check",
+                  "## Noise-mismatch sweep: gyro and magnetometer (gaussian)",
+                  "## Noise-mismatch sweep: gyro only (gaussian)", "## How to read this"):
         assert title in report, title
 
 
@@ -97,7 +112,9 @@ def test_sweep_cells_cycle_before_replicating() -> None:
                          "sweep.distributions": ["gaussian", "student-t"],
                          "sweep.runs_per_cell": 2}).sweep
     cells = [sw.cell_of(spec, t) for t in range(spec.tasks)]
-    assert spec.tasks == 12 and len(set(cells)) == 12
-    assert {c[:2] for c in cells[:6]} == {(d, f) for d in ("gaussian", "student-t")
-                                          for f in (1.0, 2.0, 5.0)}
-    assert [c[2] for c in cells] == [0] * 6 + [1] * 6
+    assert spec.scales == ("both",) and spec.tasks == 12 and len(set(cells)) == 12
+    assert {c[1:3] for c in cells[:6]} == {(d, f) for d in ("gaussian", "student-t")
+                                           for f in (1.0, 2.0, 5.0)}
+    assert [c[3] for c in cells] == [0] * 6 + [1] * 6
+    three = tiny_world(**{"sweep.scales": ["both", "gyro", "magnetometer"]}).sweep
+    assert [sw.cell_of(three, t)[0] for t in range(3)] == ["both", "gyro", "magnetometer"]
