@@ -288,7 +288,7 @@ def plot_sweep(result: CampaignResult, path: Path) -> None:
     cmap = plt.get_cmap("tab10")
     for i, (scale, dist) in enumerate(groups):
         for j, axis in enumerate(("pitch", "yaw")):
-            ax = axes[i, j]
+            ax, drawn = axes[i, j], False
             for k, row in enumerate(rows):
                 cells = sorted((c for c in sweep["cells"] if c["row"] == row
                                 and c["distribution"] == dist and c["scale"] == scale
@@ -296,10 +296,15 @@ def plot_sweep(result: CampaignResult, path: Path) -> None:
                 f = [c["factor"] for c in cells]
                 v = [np.nan if c[f"rmse_{axis}_deg"] is None else c[f"rmse_{axis}_deg"]
                      for c in cells]
+                drawn = drawn or bool(np.any(np.asarray(v, dtype=float) > 0))
                 style = "--" if "γ" in row else "-"
                 ax.plot(f, v, style, marker="o", ms=3, lw=1.0, color=cmap(k % 10), label=row)
             ax.set_xscale("log")
-            ax.set_yscale("log")
+            if drawn:
+                ax.set_yscale("log")
+            else:
+                ax.text(0.5, 0.5, "no sweep log in this cell (fewer campaign runs than logs)",
+                        transform=ax.transAxes, ha="center", fontsize=9)
             ax.set_xticks(sweep.get("factors") or [1.0],
                           [f"{f:g}×" for f in sweep.get("factors") or [1.0]])
             ax.grid(True, which="both", lw=0.3, alpha=0.5)

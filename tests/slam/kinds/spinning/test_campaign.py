@@ -25,7 +25,8 @@ def _tiny_file(tmp_path: Path, **replace: str) -> Path:
                      "gammas_rad = [0.2, 0.5, 1.0, 2.0, inf]": "gammas_rad = [2.0, inf]",
                      'scales = ["both", "gyro", "magnetometer"]': 'scales = ["both", "gyro"]',
                      "runs_per_cell = 4": "runs_per_cell = 1",
-                     'filters = ["ukf", "srckf", "ekf", "srchinf"]': 'filters = ["srckf", "srchinf"]',
+                     'filters = ["ukf", "srckf", "ekf", "srchinf"]':
+                     'filters = ["srckf", "srchinf"]',
                      'names = ["ukf", "ckf", "srckf", "svdckf", "srchinf", "uthinf", "ekf"]':
                      'names = ["srckf", "srchinf", "ekf"]', **replace}.items():
         assert old in text, old
@@ -135,3 +136,24 @@ def test_largest_difference_names_the_pair() -> None:
               "c": np.array([0.2, 1.0, np.nan])}
     assert largest_difference(curves) == (0.5, "a", "b")
     assert largest_difference({"a": curves["a"]}) is None
+
+
+def _block(order: list[str], verdicts: dict[str, str], z: float = 4.0) -> dict:
+    rows = {n: {"rank": i + 1, "verdict": verdicts.get(n, "best" if i == 0 else "separated"),
+                "z": None if i == 0 else z} for i, n in enumerate(order)}
+    return {"order": order, "rows": rows}
+
+
+def test_the_papers_claims_are_judged_from_the_paired_ranking() -> None:
+    from slam.kinds.spinning.report import claim_verdict
+
+    block = _block(["srchinf", "srckf", "ukf"], {})
+    assert claim_verdict(block, "srchinf", "best").startswith("reproduced")
+    assert claim_verdict(block, "ukf", "worst").startswith("reproduced")
+    assert claim_verdict(block, "srckf", "worst").startswith("not reproduced")
+    assert claim_verdict(block, "srchinf", "worst").startswith("contradicted")
+    assert claim_verdict(block, "ckf", "best").startswith("not tested")
+    close = _block(["srckf", "srchinf", "ukf"], {"srchinf": "not significant"}, z=1.0)
+    assert claim_verdict(close, "srchinf", "best").startswith("not decided")
+    assert claim_verdict(close, "srckf", "best").startswith("not decided")
+    assert claim_verdict(close, "ukf", "best").startswith("contradicted")

@@ -34,6 +34,10 @@ def test_bundled_world_loads() -> None:
     assert w.filters.unscented == {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}
     assert w.filters.gamma_rad == w.filters.hinf["gamma"] and w.filters.on_failure == "kalman"
     assert w.sweep.tasks <= w.runs  # every sweep log is computed by a campaign run
+    hard = load_world("spinning-large-error")  # the paper's system, larger launch errors
+    assert hard.filters.initial_sigma_rad == pytest.approx((3 * DEG, 8 * DEG))
+    assert (hard.flight, hard.field, hard.gyro) == (w.flight, w.field, w.gyro)
+    assert hard.filters.gamma_rad == 2.0 and hard.sweep.tasks <= hard.runs
     tails = load_world("spinning-outliers")
     assert tails.truth_noise.distribution == "contaminated"
     assert tails.sweep.distributions == ("student-t", "contaminated")
