@@ -135,27 +135,31 @@ def _finite(gamma: float | None) -> float | None:
 
 def summarize_sweep(spec: Any, records: list[SweepRecord]) -> dict[str, Any]:
     """``summary.json``'s ``sweep``: per scale, distribution, factor and row, the pitch and
-    yaw RMSE (deg) over the logs where the row did not diverge, the H∞ existence failures
-    and updates, and the diverged logs.  ``gamma_rad`` is ``None`` for the Kalman filters
-    and for γ = ∞ (strict JSON has no infinity)."""
+    yaw RMSE (deg) over the cell's logs that *every* row finished (``paired_logs``: the
+    rows are compared on the same logs), the H∞ existence failures and updates over all
+    its ``logs``, and the logs the row diverged on.  ``gamma_rad`` is ``None`` for the
+    Kalman filters and for γ = ∞ (strict JSON has no infinity)."""
     out: list[dict[str, Any]] = []
+    labels = [lab for lab, _, _ in sweep_rows(spec)]
     for scale, dist, factor in cells(spec):
         mine = [r for r in records
                 if (r.scale, r.distribution, r.factor) == (scale, dist, factor)]
+        paired = [r for r in mine if all(lab in r.rows and not r.rows[lab].diverged
+                                         for lab in labels)]
         for lab, name, gamma in sweep_rows(spec):
             got = [r.rows[lab] for r in mine if lab in r.rows]
-            good = [c for c in got if not c.diverged]
+            good = [r.rows[lab] for r in paired]
             n = sum(c.n for c in good)
             sq = np.sum([c.sq for c in good], axis=0) if good else np.full(2, np.nan)
             rmse = np.degrees(np.sqrt(sq / n)) if n else np.full(2, np.nan)
             out.append({
                 "scale": scale, "distribution": dist, "factor": factor, "row": lab,
                 "filter": name, "gamma_rad": _finite(gamma), "logs": len(got),
-                "diverged": sum(c.diverged for c in got),
+                "paired_logs": len(paired), "diverged": sum(c.diverged for c in got),
                 "rmse_pitch_deg": float(rmse[0]), "rmse_yaw_deg": float(rmse[1]),
                 "fallbacks": sum(c.fallbacks for c in got),
                 "updates": sum(c.updates for c in got)})
     return {"factors": list(spec.factors), "gammas_rad": [_finite(g) for g in spec.gammas_rad],
             "distributions": list(spec.distributions), "scales": list(spec.scales),
             "runs_per_cell": spec.runs_per_cell, "logs_done": len(records),
-            "rows": [lab for lab, _, _ in sweep_rows(spec)], "cells": out}
+            "rows": labels, "cells": out}

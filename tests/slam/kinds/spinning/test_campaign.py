@@ -74,6 +74,7 @@ def test_small_campaign_through_the_cli(tmp_path: Path) -> None:
     assert set(rank["pitch"]["rows"]) == FILTERS and "gtsam" not in rank["pitch"]["rows"]
     assert rank["pitch"]["reference"]["name"] == "gtsam" and s["headline"].startswith("Pitch:")
     assert s["filters"]["srchinf"]["settings"] == {"gamma": 0.5, "on_failure": "kalman"}
+    assert set(s["paper_ranking"]["yaw"]["rows"]) == {"srckf", "srchinf"}  # not the EKF
     report = (out / "report.md").read_text(encoding="utf-8")
     titles = [line for line in report.splitlines() if line.startswith("## ")]
     assert titles[:3] == ["## Decision", "## Results", "## Ranking: pitch: paired ranking "
