@@ -103,7 +103,7 @@ def largest_difference(curves: dict[str, np.ndarray]) -> tuple[float, str, str] 
     return best
 
 
-def coinciding(curves: dict[str, np.ndarray], rtol: float = 0.05
+def coinciding(curves: dict[str, np.ndarray], rtol: float = 0.01
                ) -> list[tuple[list[str], float]]:
     """Groups of ``curves`` (name -> (E,)) drawn on top of each other: linked when their
     difference is within ``rtol`` of the panel's largest magnitude (log=False) at every epoch

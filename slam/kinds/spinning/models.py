@@ -31,8 +31,10 @@ State :math:`X = [\alpha, \beta]` (pitch, yaw; rad) on ``Angle(2)``.
   :math:`\tan\alpha = \tan I/\cos(D-\beta)`, i.e. in the blind area.
 
 Every filter is :func:`estimators.make_filter`'s, run by :func:`estimators.loop.run_epochs`
-(update at t = 0, then predict + update per epoch).  ``srchinf`` (SR-CH∞KF, eq. 12-33)
-and ``uthinf`` take the bound γ (the paper's κ) and ``on_failure``; each update whose
+(update at t = 0, then predict + update per epoch), with the world's settings
+(``Models.settings``: ``[filters.unscented]`` for ``ukf``/``uthinf``, ``[filters.hinf]``
+for the H∞ filters).  ``srchinf`` (SR-CH∞KF, eq. 12-33) and ``uthinf`` take the bound γ
+(the paper's κ, rad) and ``on_failure``; each update whose
 Riccati existence condition (eq. 25/33) fails is counted (``Innovation.hinf_fallback``;
 with ``on_failure="kalman"`` that update is the Kalman one, with ``"raise"`` the run ends
 as diverged).

@@ -125,8 +125,11 @@ def claim_verdict(block: dict[str, Any], name: str, side: str) -> str:
         return f"not decided ({where}, within 2 s.e. of {order[0]})"
     if r["rank"] == n and r["verdict"] in sig:
         return f"reproduced ({where}: {_z(r)} worse than the best)"
-    if r["rank"] == 1:
-        return f"contradicted ({name} is the best)"
+    last = rows[order[-1]]
+    if r["rank"] == 1 and last["verdict"] in sig:
+        return f"contradicted ({name} is the best; {order[-1]} {_z(last)} worse)"
+    if r["rank"] == n:
+        return f"not decided ({where}, within 2 s.e. of {order[0]})"
     return f"not reproduced ({where}; last: {order[-1]})"
 
 

@@ -9,6 +9,7 @@ from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 import slam.cli
@@ -137,6 +138,13 @@ def test_largest_difference_names_the_pair() -> None:
               "c": np.array([0.2, 1.0, np.nan])}
     assert largest_difference(curves) == (0.5, "a", "b")
     assert largest_difference({"a": curves["a"]}) is None
+    from slam.kinds.spinning.figures import coinciding
+
+    near = {"a": np.array([1.0, 2.0, 3.0]), "b": np.array([1.001, 2.001, 3.001]),
+            "c": np.array([2.0, 3.0, 4.0])}
+    groups = coinciding(near)
+    assert len(groups) == 1 and groups[0][0] == ["a", "b"]
+    assert groups[0][1] == pytest.approx(0.001)
 
 
 def _block(order: list[str], verdicts: dict[str, str], z: float = 4.0) -> dict:
@@ -158,3 +166,7 @@ def test_the_papers_claims_are_judged_from_the_paired_ranking() -> None:
     assert claim_verdict(close, "srchinf", "best").startswith("not decided")
     assert claim_verdict(close, "srckf", "best").startswith("not decided")
     assert claim_verdict(close, "ukf", "best").startswith("contradicted")
+    assert claim_verdict(close, "srckf", "worst").startswith("contradicted")  # ukf is worse
+    tie = _block(["srckf", "srchinf"], {"srchinf": "identical"}, z=0.1)
+    assert claim_verdict(tie, "srckf", "worst").startswith("not reproduced")
+    assert claim_verdict(tie, "srchinf", "worst").startswith("not decided")
