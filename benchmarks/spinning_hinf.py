@@ -24,7 +24,6 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -32,6 +31,7 @@ from estimators import wrap_angle
 from slam.kinds.spinning import KIND
 from slam.kinds.spinning.models import run_filter, world_models
 from slam.kinds.spinning.simulate import sim_config, simulate
+from slam.kinds.spinning.sweep import SCALED
 from slam.registry import load_world, register
 
 CASES = (("magnetometer", "gaussian"), ("gyro", "gaussian"), ("both", "gaussian"),
@@ -39,8 +39,7 @@ CASES = (("magnetometer", "gaussian"), ("gyro", "gaussian"), ("both", "gaussian"
 
 
 def _case(world, scale: str, dist: str, factor: float):
-    fm = factor if scale in ("magnetometer", "both") else 1.0
-    fg = factor if scale in ("gyro", "both") else 1.0
+    fm, fg = (factor if on else 1.0 for on in SCALED[scale])
     return sim_config(world).with_noise(distribution=dist, magnetometer_factor=fm,
                                         gyro_factor=fg)
 
@@ -58,7 +57,8 @@ def run_case(world, cfg, gammas: list[float], runs: int, seed: int) -> list[dict
         m = world_models(world, log, rng)
         base = None
         for i, (name, g) in enumerate(names):
-            s = run_filter(log, name, replace(m, gamma=g, on_failure="kalman"))
+            mm = m if name == "srckf" else m.with_settings(name, gamma=g, on_failure="kalman")
+            s = run_filter(log, name, mm)
             e = wrap_angle(s.means - log.truth)
             ok = np.all(np.isfinite(e), axis=1)
             sq[i] += np.sum(e[ok] ** 2, axis=0)

@@ -74,12 +74,15 @@ def _spec(path: tuple[str, ...], field: Any) -> KeySpec | None:
 
 
 def _walk_schema(schema: Any, path: tuple[str, ...] = ()) -> list[KeySpec]:
+    from worlds import common as wc
     from worlds import schema as ws
 
     out: list[KeySpec] = []
     for key, spec in schema.items():
         if isinstance(spec, ws.Section):
             out.extend(_walk_schema(spec.schema, (*path, key)))
+        elif isinstance(spec, wc.SettingsTable):  # [filters.<table>]: an optional table
+            out.extend(_walk_schema(wc.RULE_SETTINGS[spec.table], (*path, key)))
         else:
             found = _spec((*path, key), spec)
             if found is not None:

@@ -1,13 +1,21 @@
 r"""The filters' model of the spinning projectile, the filter runs, and the GTSAM smoother
-([Spin SR-CH∞KF] eq. 6, 9).
+([Spin SR-CH∞KF] eq. 3, 6, 9).
 
 State :math:`X = [\alpha, \beta]` (pitch, yaw; rad) on ``Angle(2)``.
 
-* **Time update** (eq. 9 with eq. 3's increments):
-  :math:`X_k = X_{k-1} + \Delta t\, u_{k-1} + W_{k-1}`, :math:`u` the gyro's pitch and
-  yaw rates, :math:`W \sim N(0, Q)`, :math:`Q = \sigma_g^2 \Delta t\, I` for a rate noise
-  density :math:`\sigma_g` (per-sample rate σ :math:`\sigma_g/\sqrt{\Delta t}`, times
-  Δt).  Linear: Jacobian :math:`I`.
+* **Time update** (eq. 9 with eq. 3's increments, :mod:`slam.kinds.spinning.gyro`):
+  :math:`X_k = X_{k-1} + \Delta t\, u_{k-1} + W_{k-1}` with
+  :math:`u_{k-1} = \mathrm{resolve}(\omega_{k-1}, \hat\alpha_{k-1}, \hat\gamma_{k-1})`: the
+  gyro's transverse body rates turned into pitch and yaw rates with the filter's pitch and
+  the **magnetometer roll** :math:`\hat\gamma_{k-1}` (eq. 7-8 on the radial readings at
+  :math:`t_{k-1}` with the filter's posterior pitch and yaw).  The roll enters as the paper
+  has it: an *input*, taken as exact (eq. 9's :math:`B U`, the same for every sigma point,
+  so the state equation stays linear: Jacobian :math:`I`); it is not a state and its error
+  is not in :math:`Q`.  Its error, large in the blind area, is the model error the H∞
+  bound is there for.  :math:`W \sim N(0, Q_{k-1})`,
+  :math:`Q = \sigma_g^2 \Delta t\,\mathrm{diag}(1, 1/\cos^2\hat\alpha_{k-1})`: the gyro's
+  white rate noise (density :math:`\sigma_g`, the same on both body channels) through
+  eq. 3 (the yaw row is divided by :math:`\cos\alpha`).
 * **Measurement** (eq. 6, first row; eq. 9's :math:`H`):
   :math:`z_k = b_x(X_k) + V_k = B\cos I\cos\alpha\cos(D-\beta) + B\sin I\sin\alpha + V_k`,
   :math:`V \sim N(0, \sigma_m^2)`, with the analytic Jacobian
@@ -23,33 +31,47 @@ State :math:`X = [\alpha, \beta]` (pitch, yaw; rad) on ``Angle(2)``.
   :math:`\tan\alpha = \tan I/\cos(D-\beta)`, i.e. in the blind area.
 
 Every filter is :func:`estimators.make_filter`'s, run by :func:`estimators.loop.run_epochs`
-(update at t = 0, then predict + update per epoch).  ``srchinf`` (SR-CH∞KF, eq. 12-33)
-and ``uthinf`` take the bound γ (the paper's κ) and ``on_failure``; each update whose
+(update at t = 0, then predict + update per epoch), with the world's settings
+(``Models.settings``: ``[filters.unscented]`` for ``ukf``/``uthinf``, ``[filters.hinf]``
+for the H∞ filters).  ``srchinf`` (SR-CH∞KF, eq. 12-33) and ``uthinf`` take the bound γ
+(the paper's κ, rad) and ``on_failure``; each update whose
 Riccati existence condition (eq. 25/33) fails is counted (``Innovation.hinf_fallback``;
 with ``on_failure="kalman"`` that update is the Kalman one, with ``"raise"`` the run ends
 as diverged).
 
 The smoother (:func:`smooth`) is GTSAM on the same log and the same (assumed) noise:
-``Vector2`` keys per epoch, between-factors
-:math:`e = X_k - X_{k-1} - \Delta t\,u_{k-1}` (σ :math:`\sigma_g\sqrt{\Delta t}`; linear,
-so GTSAM's own ``BetweenFactorVector``), unary ``gtsam.CustomFactor`` s
-:math:`e = b_x(X_k) - z_k` (σ :math:`\sigma_m`, the analytic Jacobian above), a prior equal to the
-filters' initial belief; Levenberg-Marquardt from dead reckoning
-(:func:`levenberg_marquardt`); GTSAM's marginal covariances.
+``Vector2`` keys per epoch, between-factors (``gtsam.CustomFactor``, analytic Jacobians)
+
+.. math::
+
+    e_k = \begin{bmatrix} \alpha_k - \alpha_{k-1} \\ \cos\alpha_{k-1}(\beta_k - \beta_{k-1})
+          \end{bmatrix} - \Delta t\,\begin{bmatrix} \omega_y\sin\gamma + \omega_z\cos\gamma \\
+          \omega_y\cos\gamma - \omega_z\sin\gamma\end{bmatrix},\qquad
+    \gamma = \gamma(X_{k-1};\ \tilde b_{y}, \tilde b_{z})
+
+(eq. 3 with the roll of eq. 7-8 at the smoother's own :math:`X_{k-1}`: the same roll
+input as the filters', here a function of the state; the yaw row times
+:math:`\cos\alpha_{k-1}` so that the noise is isotropic, σ :math:`\sigma_g\sqrt{\Delta t}`),
+unary ``CustomFactor`` s :math:`e = b_x(X_k) - z_k` (σ :math:`\sigma_m`, the analytic
+Jacobian above), a prior equal to the filters' initial belief; Levenberg-Marquardt from
+an EKF pass (:func:`initial_guess`, :func:`levenberg_marquardt`); GTSAM's marginal
+covariances.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, fields
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Angle, Measurement, Noise, Transition, make_filter, settings_for
+from estimators import Angle, Measurement, Noise, NoiseError, Transition, make_filter
 from estimators.loop import run_epochs
+from slam.kinds.spinning.gyro import magnetometer_roll, resolve, roll_gradient
 from slam.kinds.spinning.simulate import SpinLog
 from slam.kinds.spinning.truth import Field, axial_field
 from slam.results import REFERENCE
@@ -68,11 +90,54 @@ def axial_jacobian(fld: Field, x: Array) -> Array:
                       B * math.cos(I) * math.cos(a) * math.sin(D - b)]])
 
 
-def transition(dt: float, rate_noise: float) -> Transition:
-    """Eq. 9: ``f(X, u) = X + Δt u`` with :math:`Q = \\sigma_g^2 \\Delta t I`."""
-    eye = np.eye(2)
-    return Transition(lambda X, u: X + dt * u, Noise.from_sigmas([rate_noise * math.sqrt(dt)] * 2),
-                      jacobian=lambda x, u: eye)
+@dataclass(frozen=True)
+class RateNoise:
+    """The time update's diagonal noise :math:`\\mathrm{diag}(s_\\alpha^2, s_\\beta^2)`, formed
+    without :class:`~estimators.Noise`'s general checks (a new one every step; the filters
+    read ``cov``, ``sqrt`` and ``dim``): both σ must be finite and positive, else
+    :class:`~estimators.NoiseError` (a counted divergence, e.g. a pitch estimate at ±90°)."""
+
+    cov: Array
+    sqrt: Array
+    dim: int = 2
+
+    @classmethod
+    def of(cls, s_alpha: float, s_beta: float) -> RateNoise:
+        if not (0.0 < s_alpha < math.inf and 0.0 < s_beta < math.inf):
+            raise NoiseError(f"gyro rate noise σ ({s_alpha:.3g}, {s_beta:.3g}) rad is not "
+                             "finite and positive (pitch estimate at ±90°?)")
+        sd = np.array([[s_alpha, 0.0], [0.0, s_beta]])
+        return cls(sd * sd, sd)
+
+
+@dataclass(frozen=True)
+class GyroModel:
+    """Eq. 3 as the filters use it (module docstring): sample interval ``dt``, the gyro's
+    assumed rate noise density ``rate_noise`` (rad/s/√Hz) and the field for the roll."""
+
+    dt: float
+    rate_noise: float
+    field: Field
+
+    def transition(self, alpha: float) -> Transition:
+        """``f(X, u) = X + Δt u`` with :math:`Q = \\sigma_g^2 \\Delta t\\,
+        \\mathrm{diag}(1, 1/\\cos^2\\hat\\alpha)` at the estimated pitch ``alpha``."""
+        s = self.rate_noise * math.sqrt(self.dt)
+        dt = self.dt
+        with np.errstate(divide="ignore"):
+            noise = RateNoise.of(s, s / abs(math.cos(alpha)))
+        return Transition(lambda X, u: X + dt * u, noise,  # type: ignore[arg-type]
+                          jacobian=lambda x, u: _EYE)
+
+    def step(self, x: Array, omega: Array, mag: Array) -> tuple[Transition, Array]:
+        """The transition and its input from the estimate ``x``, the gyro sample ``omega``
+        (2,) and the magnetometer reading ``mag`` (3,) at the same epoch: the rates of eq. 3
+        resolved with the magnetometer roll."""
+        roll = magnetometer_roll(self.field, x, mag)
+        return self.transition(float(x[0])), resolve(np.asarray(omega), x[0], roll)
+
+
+_EYE = np.eye(2)
 
 
 def measurement(fld: Field, sigma_nt: float) -> Measurement:
@@ -83,25 +148,33 @@ def measurement(fld: Field, sigma_nt: float) -> Measurement:
 
 @dataclass(frozen=True)
 class Models:
-    """What a filter run needs besides the log: models, prior, and H∞ settings."""
+    """What a filter run needs besides the log: models, prior, and each filter's settings
+    (``settings[name]``: :func:`estimators.make_filter`'s keywords; none for a filter not
+    listed)."""
 
-    transition: Transition
+    gyro: GyroModel
     measurement: Measurement
     x0: Array
     P0: Array
-    gamma: float = 5.0
-    on_failure: str = "kalman"
+    settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def with_settings(self, name: str, **changes: Any) -> Models:
+        """These models with filter ``name``'s settings changed (e.g. ``gamma``)."""
+        mine = {**self.settings.get(name, {}), **changes}
+        return replace(self, settings={**self.settings, name: mine})
 
 
 def world_models(world: Any, log: SpinLog, rng: np.random.Generator) -> Models:
-    r"""A world's filter models (its *assumed* noises, H∞ settings) and a prior drawn
-    around the truth: :math:`\hat x_0 = x_0 + N(0, P_0)`,
+    r"""A world's filter models (its *assumed* noises, its filters' settings) and a prior
+    drawn around the truth: :math:`\hat x_0 = x_0 + N(0, P_0)`,
     :math:`P_0 = \mathrm{diag}(\sigma_0^2)` (``[filters] initial_sigma_deg``)."""
     P0 = np.diag(np.square(world.filters.initial_sigma_rad))
     x0 = log.truth[0] + np.sqrt(np.diag(P0)) * rng.standard_normal(2)
-    return Models(transition(log.dt, world.gyro.rate_noise_rad_s_sqrt_hz),
+    fs = world.filters
+    names = dict.fromkeys([*fs.names, *world.sweep.filters])
+    return Models(GyroModel(log.dt, world.gyro.rate_noise_rad_s_sqrt_hz, world.field),
                   measurement(world.field, world.magnetometer.noise_nt), x0, P0,
-                  world.filters.gamma_rad, world.filters.on_failure)
+                  {n: fs.settings_of(n) for n in names})
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -139,9 +212,10 @@ class Series(RunFacts):
 
 
 def run_filter(log: SpinLog, name: str, m: Models, label: str | None = None) -> Series:
-    """Run filter ``name`` over the log (module docstring); ``label`` names the series."""
+    """Run filter ``name`` (with ``m.settings[name]``) over the log (module docstring);
+    ``label`` names the series."""
     E = log.n_epochs
-    flt = make_filter(name, **settings_for(name, {"gamma": m.gamma, "on_failure": m.on_failure}))
+    flt = make_filter(name, **m.settings.get(name, {}))
     means = np.full((E, 2), np.nan)
     covs = np.full((E, 2, 2), np.nan)
     nis = np.full(E, np.nan)
@@ -156,9 +230,11 @@ def run_filter(log: SpinLog, name: str, m: Models, label: str | None = None) -> 
             falls.append(k)
         return b, [inn]
 
+    def transition(k: int, b):
+        return m.gyro.step(b.mean, log.gyro[k - 1], log.mag[k - 1])
+
     out = run_epochs(flt, flt.init(m.x0, STATE, cov=m.P0), E, correct_first=True,
-                     record=record, transition=lambda k, b: (m.transition, log.gyro[k - 1]),
-                     correct=correct)
+                     record=record, transition=transition, correct=correct)
     nis[out.nis_epoch] = out.nis
     return Series(name=label or name, means=means, covs=covs, nis=nis, time_s=out.time_s,
                   cycles=E - 1, fallbacks=len(falls), updates=len(out.nis),
@@ -166,10 +242,56 @@ def run_filter(log: SpinLog, name: str, m: Models, label: str | None = None) -> 
                   fallback_epochs=np.array(falls, dtype=int))
 
 
-def dead_reckoning(log: SpinLog, x0: Array) -> Array:
-    """``(E, 2)`` the gyro integrated from ``x0`` (eq. 9 without updates)."""
-    steps = np.vstack([x0[None, :], log.dt * np.asarray(log.gyro)])
-    return np.cumsum(steps, axis=0)
+def dead_reckoning(log: SpinLog, x0: Array, fld: Field) -> Array:
+    """``(E, 2)`` eq. 3 integrated from ``x0`` without updates, each step's gyro sample
+    resolved with the magnetometer roll at the dead-reckoned pitch and yaw."""
+    out = np.empty((log.n_epochs, 2))
+    out[0] = x0
+    for k in range(1, log.n_epochs):
+        x = out[k - 1]
+        roll = magnetometer_roll(fld, x, log.mag[k - 1])
+        out[k] = x + log.dt * resolve(np.asarray(log.gyro[k - 1]), x[0], roll)
+    return out
+
+
+def initial_guess(log: SpinLog, m: Models) -> Array:
+    """``(E, 2)`` where the smoother starts: an EKF pass on the same log and models, or dead
+    reckoning (:func:`dead_reckoning`) if that pass fails.  Dead reckoning alone resolves
+    the gyro with the roll at its own drifting estimate and loses it in the blind area,
+    where Levenberg-Marquardt then needs tens of iterations to come back."""
+    ekf = run_filter(log, "ekf", m)
+    if ekf.diverged or not np.all(np.isfinite(ekf.means)):
+        return dead_reckoning(log, m.x0, m.gyro.field)
+    return ekf.means
+
+
+def between_error(fld: Field, dt: float, omega: Array, mag: Array, a: Array, b: Array
+                  ) -> tuple[Array, Array, Array]:
+    """The smoother's eq. 3 factor (module docstring) between ``a`` = :math:`X_{k-1}` and
+    ``b`` = :math:`X_k`: the error (2,) and its Jacobians (2, 2) in ``a`` and ``b``."""
+    wy, wz = float(omega[0]), float(omega[1])
+    roll = magnetometer_roll(fld, a, mag)
+    cg, sg = math.cos(roll), math.sin(roll)
+    r_a, r_p = wy * sg + wz * cg, wy * cg - wz * sg  # pitch rate, transverse yaw rate
+    ca, sa = math.cos(a[0]), math.sin(a[0])
+    db = float(b[1] - a[1])
+    err = np.array([b[0] - a[0] - dt * r_a, ca * db - dt * r_p])
+    g = roll_gradient(fld, a, mag)  # d roll / d a
+    Ja = np.array([[-1.0 - dt * r_p * g[0], -dt * r_p * g[1]],
+                   [-sa * db + dt * r_a * g[0], -ca + dt * r_a * g[1]]])
+    Jb = np.array([[1.0, 0.0], [0.0, ca]])
+    return err, Ja, Jb
+
+
+def _between(fld: Field, dt: float, omega: Array, mag: Array):
+    def err(this: Any, values: Any, H: list[Array] | None) -> Array:
+        k0, k1 = this.keys()
+        e, Ja, Jb = between_error(fld, dt, omega, mag, values.atVector(k0),
+                                  values.atVector(k1))
+        if H is not None:
+            H[0], H[1] = Ja, Jb
+        return e
+    return err
 
 
 def _axial(fld: Field, z: float):
@@ -239,10 +361,11 @@ def smooth(log: SpinLog, m: Models, fld: Field, rate_noise: float, mag_sigma: fl
     for k in range(E):
         graph.add(gtsam.CustomFactor(unary, [keys[k]], _axial(fld, float(log.mag[k, 0]))))
         if k:
-            increment = dt * np.array(log.gyro[k - 1])
-            graph.add(gtsam.BetweenFactorVector(keys[k - 1], keys[k], increment, between))
+            graph.add(gtsam.CustomFactor(between, [keys[k - 1], keys[k]],
+                                         _between(fld, dt, np.array(log.gyro[k - 1]),
+                                                  np.array(log.mag[k - 1]))))
     values = gtsam.Values()
-    for k, x in zip(keys, dead_reckoning(log, m.x0)):
+    for k, x in zip(keys, initial_guess(log, m)):
         values.insert(k, x)
     result, _ = levenberg_marquardt(graph, values, keys)
     means = np.array([result.atVector(k) for k in keys])

@@ -7,17 +7,21 @@ before impact.  At every epoch:
 * **magnetometer** (three axes, body frame, nT): :math:`\tilde b_k = b(\alpha_k,
   \beta_k, \gamma_k) + v_k` (eq. 6), :math:`v_k = f_m \sigma_m \epsilon` per axis
   (:mod:`slam.kinds.spinning.noise`);
-* **gyro** over :math:`[t_k, t_{k+1}]`: the pitch and yaw rates
-  :math:`u_k = [(\alpha_{k+1}-\alpha_k)/\Delta t,\ (\beta_{k+1}-\beta_k)/\Delta t] + n_k`,
-  :math:`n_k = f_g (\sigma_g/\sqrt{\Delta t})\,\epsilon` with :math:`\sigma_g` the rate
-  noise density, and the roll channel :math:`\omega_x` clipped at its range (the paper's
+* **gyro** at :math:`t_k` (:mod:`slam.kinds.spinning.gyro`): the two transverse body
+  rates :math:`\omega_k = [\omega_y, \omega_z]` of the pitch and yaw rates over
+  :math:`[t_k, t_{k+1}]`, turned by the true roll :math:`\gamma_k` (eq. 1 inverted), plus
+  :math:`n_k = f_g (\sigma_g/\sqrt{\Delta t})\,\epsilon` per channel (:math:`\sigma_g` the
+  rate noise density); the roll channel :math:`\omega_x` clipped at its range (the paper's
   saturated, "open circuit" axis; logged, never used).
 
-The gyro output is taken as already resolved into pitch and yaw rates (eq. 2): resolving
-the two spinning transverse channels needs the roll at a rate far above the spin, which
-the sensor package does internally; its resolution error is not modelled.  The mean rates
-over each interval are exact, so ``X_k = X_{k-1} + Δt u_{k-1}`` (eq. 9) reproduces the
-truth to round-off on a noise-free log.
+The transverse samples spin with the body (15 rev/s against 10 Hz sampling): only the roll
+at the same instant turns them back into pitch and yaw rates (eq. 3), and that roll comes
+from the magnetometer.  Each sample is the body rate of the interval's *mean* pitch and yaw
+rates at :math:`(\alpha_k, \gamma_k)`, so that eq. 3 with the true roll,
+:math:`X_{k+1} = X_k + \Delta t\,\mathrm{resolve}(\omega_k, \alpha_k, \gamma_k)`,
+reproduces the truth to round-off on a noise-free log: the one modelled error of the
+resolution is the roll's.  (An instantaneous sample would add the rectangle rule's error,
+about :math:`\Delta t^2|\ddot\alpha|/2` per step, well below the gyro noise.)
 
 Draw order (fixed, whatever the noise levels and shape): gyro noise, magnetometer noise.
 """
@@ -32,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nav.arrays import read_only
+from slam.kinds.spinning.gyro import body_rates
 from slam.kinds.spinning.noise import NoiseShape, unit_noise
 from slam.kinds.spinning.truth import Field, FlightSpec, attitude_at, body_field, trajectory
 
@@ -67,7 +72,8 @@ class SpinLog:
     """One run's log (read-only arrays; E epochs).
 
     times (E,); alpha, beta, gamma (E,) true pitch, yaw, roll (rad; roll in [0, 2π));
-    gyro (E - 1, 2) measured pitch and yaw rates over each interval (rad/s);
+    gyro (E - 1, 2) measured transverse body rates [ω_y, ω_z] at the start of each
+    interval (rad/s);
     gyro_roll (E - 1,) the saturated roll channel (rad/s); mag (E, 3) measured body field
     (nT); mag_true (E, 3) the noise-free field; metadata: the flight's numbers.
     """
@@ -121,11 +127,11 @@ def simulate(cfg: SimConfig, rng: np.random.Generator) -> SpinLog:
     gyro_noise = unit_noise(rng, (E - 1, 2), ns)
     mag_noise = unit_noise(rng, (E, 3), ns)
     sigma_rate = cfg.gyro_sigma_rad_s_sqrt_hz / math.sqrt(cfg.dt_s)
-    rates = np.column_stack([tr.alpha_rate, tr.beta_rate])
-    gyro = rates + ns.gyro_factor * sigma_rate * gyro_noise
-    # body roll rate: omega_x = gamma_dot + beta_dot sin(alpha) (see truth), clipped
-    omega_x = tr.roll_rate[:-1] + tr.beta_rate * np.sin(tr.alpha[:-1])
-    gyro_roll = np.clip(omega_x, -cfg.roll_range_rad_s, cfg.roll_range_rad_s)
+    # body rates at t_k of the interval's mean Euler rates, turned by the true roll (eq. 1)
+    omega = body_rates(tr.alpha[:-1], tr.gamma[:-1], tr.alpha_rate, tr.beta_rate,
+                       tr.roll_rate[:-1])
+    gyro = omega[:, 1:] + ns.gyro_factor * sigma_rate * gyro_noise
+    gyro_roll = np.clip(omega[:, 0], -cfg.roll_range_rad_s, cfg.roll_range_rad_s)
     b = body_field(cfg.field, tr.alpha, tr.beta, tr.gamma)
     mag = b + ns.magnetometer_factor * cfg.mag_sigma_nt * mag_noise
     meta = {"drag_k_per_m": flight.k_per_m, "flight_time_s": flight.flight_time_s,

@@ -19,11 +19,14 @@ Units are spelled in every key and converted to SI radians on load.  File layout
     [truth_noise]  magnetometer_factor, gyro_factor (true noise = factor x assumed),
                    distribution ("gaussian" | "student-t" | "contaminated"),
                    student_t_dof, contamination_fraction, contamination_scale
-    [filters]      names, gamma_rad (the paper's kappa), on_failure ("kalman" | "raise"),
-                   initial_sigma_deg = [pitch, yaw]
+    [filters]      names, initial_sigma_deg = [pitch, yaw]
+    [filters.hinf] gamma (rad: the paper's kappa), on_failure ("kalman" | "raise"), for
+                   srchinf / uthinf
+    [filters.unscented] alpha, beta, kappa (for ukf / uthinf)
     [scoring]      blind_area_deg, divergence_deg
     [sweep]        factors, gammas_rad, distributions, runs_per_cell, filters,
-                   scale ("both" | "magnetometer" | "gyro": the sensors the factor scales)
+                   scales (a list of "both" | "magnetometer" | "gyro": the sensors the
+                   factor scales; one mismatch sweep per entry)
     [paper]        free-form: the paper's statements, passed through to summary.json
 """
 
@@ -106,13 +109,22 @@ class MagnetometerSpec:
 
 
 @dataclass(frozen=True)
-class SpinningFilterSpec(wc.JointOnly):
-    """Filters to run; γ and the failure policy of ``srchinf``/``uthinf``; the prior σ."""
+class SpinningFilterSpec(wc.JointOnly, wc.TunedFilters):
+    """Filters to run, the prior σ, and the settings tables (``[filters.hinf]``: γ in rad
+    and the failure policy of ``srchinf``/``uthinf``; ``[filters.unscented]``)."""
 
     names: tuple[str, ...]
-    gamma_rad: float
-    on_failure: str
     initial_sigma_rad: tuple[float, float]
+
+    @property
+    def gamma_rad(self) -> float | None:
+        """The H∞ bound γ of ``[filters.hinf]`` (``None`` when no H∞ filter is listed)."""
+        return None if self.hinf is None else float(self.hinf["gamma"])
+
+    @property
+    def on_failure(self) -> str | None:
+        """``[filters.hinf] on_failure`` (``None`` when no H∞ filter is listed)."""
+        return None if self.hinf is None else str(self.hinf["on_failure"])
 
 
 @dataclass(frozen=True)
@@ -126,21 +138,24 @@ class ScoringSpec:
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """The noise-mismatch sweep: true noise ``factor`` x assumed on the sensors ``scale``
-    names, per distribution, for every filter (H∞ filters at every γ), ``runs_per_cell``
-    logs per (distribution, factor)."""
+    """The noise-mismatch sweeps: true noise ``factor`` x assumed on the sensors each of
+    ``scales`` names ("both": gyro and magnetometer together, which leaves the Kalman gain
+    unchanged; "gyro" or "magnetometer" alone, which does not), per distribution, for every
+    filter (H∞ filters at every γ), ``runs_per_cell`` logs per (scale, distribution,
+    factor)."""
 
     factors: tuple[float, ...]
     gammas_rad: tuple[float, ...]
     distributions: tuple[str, ...]
     runs_per_cell: int
     filters: tuple[str, ...]
-    scale: str = "both"
+    scales: tuple[str, ...] = ("both",)
 
     @property
     def tasks(self) -> int:
-        """Sweep logs in all: one per (replicate, distribution, factor)."""
-        return self.runs_per_cell * len(self.distributions) * len(self.factors)
+        """Sweep logs in all: one per (replicate, scale, distribution, factor)."""
+        return (self.runs_per_cell * len(self.scales) * len(self.distributions)
+                * len(self.factors))
 
 
 @dataclass(frozen=True)
@@ -209,10 +224,9 @@ WORLD = wc.world(KIND, SpinningWorld, {
     }, into=NoiseShape),
     "filters": ws.Section({
         "names": ws.StringList(NAMES),
-        "gamma_rad": ws.Sigma(ws.positive(1e9), default=5.0),
-        "on_failure": ws.String(choices=("kalman", "raise"), default="kalman"),
         "initial_sigma_deg": ws.SigmaVector(2, ws.Interval(0.0, 30.0, lo_open=True), scale=DEG)
         .to("initial_sigma_rad"),
+        **wc.settings_tables(),
     }, into=SpinningFilterSpec),
     "scoring": ws.Section({
         "blind_area_deg": ws.Number(ws.Interval(0.0, 90.0, lo_open=True), scale=DEG)
@@ -225,7 +239,7 @@ WORLD = wc.world(KIND, SpinningWorld, {
         "distributions": ws.StringList(DISTRIBUTIONS, default=["gaussian"]),
         "runs_per_cell": ws.Integer(ws.Interval(0, 1000), default=5),
         "filters": ws.StringList(NAMES, default=list(NAMES)),
-        "scale": ws.String(choices=SCALES, default="both"),
+        "scales": ws.StringList(SCALES, default=["both"]),
     }, required=False, into=SweepSpec),
 }, paper=PAPER)
 SCHEMA = WORLD.schema
@@ -289,5 +303,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     """Validate a parsed ``spinning`` TOML document and build its :class:`SpinningWorld`."""
     root = ws.Where(source, "")
     v = ws.read_table(data, SCHEMA, root)
+    wc.check_settings(v["filters"], [*v["filters"]["names"], *v["sweep"]["filters"]],
+                      root.child("filters"))
     return ws.build(WORLD, v, name=name, source=source,
                     flight=_flight(v["launch"], v["flight"]), roll0_rad=v["launch"]["roll_deg"])

@@ -43,10 +43,10 @@ def _run(w, seed: int):
     return log, m, s
 
 
-def test_smoother_recovers_a_noise_free_log() -> None:
+def test_smoother_recovers_a_noise_free_log() -> None:  # eq. 3 factors with its own roll
     w = tiny_world(**{"truth_noise.magnetometer_factor": 0.0, "truth_noise.gyro_factor": 0.0})
     log, m, _ = _run(w, 1)
-    exact = M.Models(m.transition, m.measurement, log.truth[0], m.P0)
+    exact = M.Models(m.gyro, m.measurement, log.truth[0], m.P0, m.settings)
     s = M.smooth(log, exact, w.field, w.gyro.rate_noise_rad_s_sqrt_hz, w.magnetometer.noise_nt,
                  marginals=False)
     assert np.abs(s.means - log.truth).max() < 1e-9

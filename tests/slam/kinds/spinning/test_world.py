@@ -30,6 +30,14 @@ def test_bundled_world_loads() -> None:
     assert set(w.filters.names) == {"ukf", "ckf", "srckf", "svdckf", "srchinf", "uthinf", "ekf"}
     assert w.sweep.factors == (1.0, 2.0, 5.0, 10.0) and math.isinf(w.sweep.gammas_rad[-1])
     assert w.filters.mode == "joint" and "600-800 s" in w.paper["blind_area"]
+    assert w.sweep.scales == ("both", "gyro", "magnetometer")
+    assert w.filters.unscented == {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}
+    assert w.filters.gamma_rad == w.filters.hinf["gamma"] and w.filters.on_failure == "kalman"
+    assert w.sweep.tasks <= w.runs  # every sweep log is computed by a campaign run
+    hard = load_world("spinning-large-error")  # the paper's system, larger launch errors
+    assert hard.filters.initial_sigma_rad == pytest.approx((3 * DEG, 8 * DEG))
+    assert (hard.flight, hard.field, hard.gyro) == (w.flight, w.field, w.gyro)
+    assert hard.filters.gamma_rad == 2.0 and hard.sweep.tasks <= hard.runs
     tails = load_world("spinning-outliers")
     assert tails.truth_noise.distribution == "contaminated"
     assert tails.sweep.distributions == ("student-t", "contaminated")
@@ -45,7 +53,11 @@ def test_bundled_world_loads() -> None:
         ({"truth_noise.distribution": "cauchy"}, "truth_noise.distribution"),
         ({"truth_noise.student_t_dof": 2.0}, "truth_noise.student_t_dof"),
         ({"filters.names": ["srckf", "kalman"]}, "filters.names[1]"),
-        ({"filters.on_failure": "ignore"}, "filters.on_failure"),
+        ({"filters.hinf.on_failure": "ignore"}, "filters.hinf.on_failure"),
+        ({"filters.hinf.gamma": 0.0}, "filters.hinf.gamma"),
+        ({"filters.gamma_rad": 2.0}, "filters.gamma_rad"),  # moved to [filters.hinf]
+        ({"filters.unscented": None, "sweep.filters": ["srckf"]}, "filters.unscented"),
+        ({"sweep.scales": ["both", "accelerometer"]}, "sweep.scales[1]"),
         ({"filters.initial_sigma_deg": [1.0]}, "filters.initial_sigma_deg"),
         ({"sweep.gammas_rad": [2.0, -1.0]}, "sweep.gammas_rad[1]"),
         ({"sweep.factors": [0.5]}, "sweep.factors[0]"),
