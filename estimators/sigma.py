@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from .finite import require_finite, require_finite_input
+from .homm import carry_update, drawn_rule, predicted_belief
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
@@ -69,24 +70,27 @@ def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition
                   u: Any = None, method: SqrtMethod = "cholesky") -> Belief:
     """Time update: propagate sigma points through ``model.f``."""
     require_finite_input(u)
+    r = drawn_rule(rule, belief, 0 if model.additive else model.noise.dim)  # HoMM moments
     if model.additive:
-        X, _, _, wm = draw(rule, belief, None, method)
+        X, _, _, wm = draw(r, belief, None, method)
         Y = model.f(X, u)
     else:
-        X, W, _, wm = draw(rule, belief, model.noise, method)
+        X, W, _, wm = draw(r, belief, model.noise, method)
         Y = model.f(X, u, W)
     require_finite("transition output", Y)
     space = model.space or belief.space
     mean = space.mean(Y, wm)
-    fac = rule.factor(space.local(mean, Y))
-    cov = _covariance(form, fac, model.noise if model.additive else None)
-    return _belief(form, mean, cov, space)
+    D = space.local(mean, Y)
+    cov = _covariance(form, r.factor(D), model.noise if model.additive else None)
+    out = _belief(form, mean, cov, space)
+    return predicted_belief(rule, belief, out, D, wm, model.noise.cov if model.additive else None)
 
 
 def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
                  z: Array, method: SqrtMethod = "cholesky") -> tuple[Belief, Innovation]:
     """Measurement update with points redrawn from ``belief``."""
     require_finite("measurement", z)
+    rule = drawn_rule(rule, belief)  # HoMM: the predicted moments
     X, _, dX, wm = draw(rule, belief, None, method)
     Z = model.h(X)
     require_finite("measurement model output", Z)
@@ -126,7 +130,8 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         post = factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
         w = (U.T @ nu) / s
     mean = belief.space.retract(belief.mean, K @ nu)
-    return _belief(form, mean, post, belief.space), Innovation(nu, Szz, float(w @ w))
+    return (carry_update(belief, _belief(form, mean, post, belief.space)),
+            Innovation(nu, Szz, float(w @ w)))
 
 
 def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Array | None,

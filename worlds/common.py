@@ -17,6 +17,7 @@ from typing import Any
 import worlds.schema as ws
 from estimators.filters import SETTINGS, describe_settings, make_filter
 from estimators.hinf import MIN_GAMMA
+from estimators.homm import MOMENT_SOURCES
 from estimators.rules import JULIER_KAPPA
 from worlds.units import DEG, DEG_H
 
@@ -157,7 +158,8 @@ RULE_SETTINGS: dict[str, dict[str, ws.Field]] = {
     "central_difference": {"h": ws.Number(ws.Interval(1.0, 10.0))},
     "hinf": {"gamma": ws.Number(ws.Interval(MIN_GAMMA, math.inf)),
              "on_failure": ws.String(choices=("raise", "kalman"))},
-    "homm": {"skewness": ws.Number(ws.Interval(-10.0, 10.0)),
+    "homm": {"moments": ws.String(choices=MOMENT_SOURCES),
+             "skewness": ws.Number(ws.Interval(-10.0, 10.0)),
              "kurtosis": ws.Number(ws.Interval(1.0, 100.0))},
 }
 """The ``[filters.<table>]`` settings tables and their keys (the names of
@@ -238,7 +240,8 @@ class TunedFilters:
 TABLE_KEYS = {"unscented": "alpha, beta, kappa (alpha = 1, beta = 2, kappa = 0 is the cubature "
               "point set; say which standard you take)",
               "central_difference": "h (sqrt(3) is optimal for a Gaussian prior)",
-              "hinf": "gamma and on_failure", "homm": "skewness and kurtosis"}
+              "hinf": "gamma and on_failure",
+              "homm": 'moments ("predicted": [Ding 2017]\'s, or "fixed"), skewness and kurtosis'}
 
 
 def check_settings(filters: Any, names: Sequence[str], where: ws.Where) -> None:
