@@ -68,7 +68,7 @@ def plot_attitude_errors(result: CampaignResult, path: Path) -> None:
     ref = first.scores.get(REFERENCE)
     settle = int(np.searchsorted(first.times, min(SETTLE_S, first.times[-1])))
     end = min(SETTLE_S, float(first.times[-1]))
-    grid = ErrorGrid((*AXES, f"yaw, first {end:g} s"), 16.0, 1.3, "{name}: {axis} (′)",
+    grid = ErrorGrid((*AXES, f"yaw (first {end:g} s)"), 16.0, 1.3, "{name}: {axis} (′)",
                      ("error", "sigma", "envelope", "paper", "reference"),
                      f"attitude error (arcmin; roll, pitch, yaw scaled after {end:g} s, "
                      f"the yaw transient of the first {end:g} s on the right)",

@@ -96,13 +96,16 @@ def test_the_report_and_the_terminal_decide(tmp_path) -> None:
 
 def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
     """Every figure is written; the attitude panels' y range leaves out the transient
-    before 30 s (here the 8 s run's last epoch alone sets it)."""
+    before 30 s (here the 8 s run's last epoch alone sets it), and a fourth column draws
+    the yaw transient itself (the first 30 s, here the whole 8 s) on its own scale."""
     import slam.kinds.ship.figures as figures
 
-    panels, real = [], figures.error_grid
+    panels, grids, real = [], [], figures.error_grid
 
     def spy(result, path, grid, panel, colours):
         panels.extend((panel(n, c), result) for n in figures._names(result) for c in range(3))
+        transient = [panel(n, 3) for n in figures._names(result)]
+        grids.append((grid, transient, [panel(n, 2) for n in figures._names(result)]))
         return real(result, path, grid, panel, colours)
 
     monkeypatch.setattr(figures, "error_grid", spy)
@@ -111,6 +114,10 @@ def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
     for f in REPORT.figures():
         assert (out / f).stat().st_size > 10_000, f
     assert len(panels) == 9  # hommukf, ekf and the smoother, three axes each
+    (grid, transient, yaw), = grids
+    assert len(grid.axes) == 4 and grid.windows == (None, None, None, 8.0)
+    for t, y in zip(transient, yaw):
+        assert t.settle == 0 and (t.env is None or np.array_equal(t.env, y.env, equal_nan=True))
     for p, result in panels:
         times = result.outcomes[0].times
         assert p.settle == len(times) - 1 and times[p.settle] == times[-1]
