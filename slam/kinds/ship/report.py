@@ -223,9 +223,10 @@ def moments_text(summary: dict[str, Any]) -> str:
             f"{m['predictions']} estimates refused (kurtosis ≤ skewness²: the stated moments "
             "used instead), over its "
             f"{m['runs']} runs. The process model is a rotation of the attitude error (up to "
-            "the drift), so the predicted points stay symmetric and the kurtosis moves only "
-            "because a linear map mixes the axes of a 2n+1 point set (it has no mixed fourth "
-            "moments).")
+            "the drift), so the predicted points stay nearly symmetric (the skewness above) "
+            "and the kurtosis moves because a linear map mixes the axes of a 2n+1 point set "
+            "(it has no mixed fourth moments) and the paper's normalisation by the Cholesky "
+            "factor's fourth powers does not undo it.")
     return " ".join(out)
 
 
