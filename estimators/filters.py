@@ -11,12 +11,11 @@ name         filter                                                     settings
 ``srukf``    square-root unscented Kalman filter (QR + downdate)        ``alpha beta kappa``
 ``srcdkf``   square-root central-difference Kalman filter               ``h``
 ``svdckf``   cubature Kalman filter with an SVD-factored covariance     -
-``hommukf``  high-order moment-matching UKF ([Ding 2017]), dense        ``skewness kurtosis``
+``hommukf``  high-order moment-matching UKF ([Ding 2017]), dense        moments skewness kurtosis
 ``iekf``     iterated EKF (Gauss-Newton update, step control)           ``iterations tolerance``
 ``isrckf``   SRCKF with the iterated posterior-linearisation update     ``iterations tolerance``
 ``isrukf``   SRUKF with the iterated posterior-linearisation update     as ``srukf`` and ``isrckf``
-===========  =========================================================  ==========================
-
+===========  =========================================================  ===================
 Robust filters (:data:`ROBUST_FILTER_NAMES`; they do *not* reduce to the Kalman filter
 on a linear model for finite ``gamma``, so they are kept out of :data:`FILTER_NAMES`):
 
@@ -37,8 +36,13 @@ Settings (:data:`SETTINGS`; :data:`DEFAULTS` when not given):
   be large enough that 1/γ² is a finite number, γ ≥ :data:`MIN_GAMMA`); ``on_failure``:
   ``"raise"`` or ``"kalman"`` when the Riccati existence condition fails
   (:mod:`estimators.hinf`).
-* ``skewness``, ``kurtosis``: the standardised moments the HoMM rule matches (0 and 3, a
-  Gaussian's, where its points are Julier's κ = 3 − n set).
+* ``moments``: where the HoMM rule takes the moments it matches - ``"predicted"`` (the
+  default, [Ding 2017]'s mechanism: φ₁, φ₂ of the predicted points at every step, carried
+  by the predicted belief; :mod:`estimators.homm`) or ``"fixed"`` (``skewness`` and
+  ``kurtosis`` at every draw).  ``skewness``, ``kurtosis``: the standardised moments of
+  the first draw, the noise axes and a refused estimate (``"predicted"``), or of every
+  draw (``"fixed"``); 0 and 3 are a Gaussian's, where the fixed rule's points are Julier's
+  κ = 3 − n set.
 * ``iterations``, ``tolerance``: the iterated updates' most iterations and the whitened
   step below which they stop (:mod:`estimators.iterated`; 1 iteration is the one-pass
   update).
@@ -69,15 +73,15 @@ _HINF = ("gamma", "on_failure")
 _IT = ("iterations", "tolerance")
 SETTINGS: dict[str, tuple[str, ...]] = {
     "ekf": (), "ckf": (), "ukf": _UT, "cdkf": ("h",), "srckf": (), "srukf": _UT,
-    "srcdkf": ("h",), "svdckf": (), "hommukf": ("skewness", "kurtosis"),
+    "srcdkf": ("h",), "svdckf": (), "hommukf": ("moments", "skewness", "kurtosis"),
     "srchinf": _HINF, "uthinf": _UT + _HINF,
     "iekf": _IT, "isrckf": _IT, "isrukf": _UT + _IT,
 }
 """The settings each filter takes (keyword arguments of :func:`make_filter`)."""
 
 DEFAULTS: dict[str, Any] = {"alpha": 1.0, "beta": 2.0, "kappa": 0.0, "h": math.sqrt(3.0),
-                            "gamma": 5.0, "on_failure": "raise", "skewness": 0.0,
-                            "kurtosis": 3.0, "iterations": 5, "tolerance": 1e-9}
+                            "gamma": 5.0, "on_failure": "raise", "moments": "predicted",
+                            "skewness": 0.0, "kurtosis": 3.0, "iterations": 5, "tolerance": 1e-9}
 """A setting's value when :func:`make_filter` is not given it (module docstring)."""
 
 __all__ = ["DEFAULTS", "FILTER_NAMES", "MIN_GAMMA", "ROBUST_FILTER_NAMES", "SETTINGS", "Filter",
@@ -103,7 +107,8 @@ def _build(name: str, s: dict[str, Any]) -> Filter:
         return SigmaPointFilter(name, CentralDifference(s["h"]),
                                 "dense" if name == "cdkf" else "sqrt")
     if name == "hommukf":
-        return SigmaPointFilter(name, HighOrderMoment(s["skewness"], s["kurtosis"]), "dense")
+        return SigmaPointFilter(name, HighOrderMoment(s["skewness"], s["kurtosis"],
+                                                      moments=s["moments"]), "dense")
     if name == "srchinf":
         return HInfinityFilter(name, Cubature(), "sqrt", s["gamma"], s["on_failure"])
     return HInfinityFilter(name, Unscented(s["alpha"], s["beta"], s["kappa"]), "dense",
@@ -148,7 +153,11 @@ def describe_settings(filt: Filter) -> str:
     elif isinstance(rule, CentralDifference):
         parts.append(f"h = {rule.h:.4g}")
     elif isinstance(rule, HighOrderMoment):
-        parts.append(f"skewness {rule.skewness}, kurtosis {rule.kurtosis}")
+        if rule.moments == "predicted":
+            parts.append(f"moments of the predicted points ([Ding 2017] φ₁, φ₂); first draw "
+                         f"and fallback skewness {rule.skewness:g}, kurtosis {rule.kurtosis:g}")
+        else:
+            parts.append(f"fixed skewness {rule.skewness}, kurtosis {rule.kurtosis}")
     its = getattr(filt, "iterations", None)
     if its is not None:
         parts.append(f"at most {its} iterations, tolerance {filt.tolerance:g}")

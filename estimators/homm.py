@@ -46,6 +46,59 @@ For a Gaussian (:math:`s = 0, k = 3`): :math:`a = b = \sqrt3`, :math:`w_{\pm j} 
 (mean and covariance weights equal).  :math:`w_0 < 0` for :math:`n > 3`; the factor
 then carries a signed rank-one term, exactly as :class:`~estimators.rules.Unscented`.
 
+Moments from the predicted points (``moments = "predicted"``: the paper's mechanism)
+-------------------------------------------------------------------------------------
+[Ding 2017] computes :math:`\phi_1, \phi_2` inside the recursion from the sigma points
+themselves (§3 step 3 and the definitions after eq. 20): with the propagated points
+:math:`\mathcal Y_i`, their weights :math:`w_i`, the predicted mean :math:`\hat x'` and
+the lower Cholesky factor :math:`S'` of the predicted covariance :math:`P'`,
+
+.. math::
+
+    W_j = \sum_i w_i D_{ij}^3,\quad \Psi_j = \sum_i w_i D_{ij}^4,\quad
+    D_i = \mathcal Y_i \boxminus \hat x',\qquad
+    \phi_1 = \frac{\sum_j W_j}{\sqrt N \sum_{lk} S'^3_{lk}},\quad
+    \phi_2 = \frac{\sum_j \Psi_j}{N \sum_{lk} S'^4_{lk}},
+
+:math:`j` over the state's tangent components.  The rule then matches
+:math:`s = \sqrt N\phi_1 = \sum_j W_j / \sum S'^3` and :math:`k = N\phi_2 = \sum_j
+\Psi_j / \sum S'^4` - one skewness and one kurtosis averaged over the components
+(weighted by their cubed / fourth-power spreads), the same on every axis of the next
+draw.  For independent standardised components of skewness :math:`s` and kurtosis
+:math:`k` and a diagonal :math:`S'` this returns :math:`(s, k)` exactly; for the rule's
+own undistorted points (no mixed fourth moments) it returns its :math:`(s, k)` for any
+:math:`S'`.  It is *not* the Gaussian's (0, 3) for a predicted set: a linear map mixes
+the axes (per component :math:`\Psi_j = k\sum_c (AS)_{jc}^4`, which for the Gaussian
+set, :math:`k = 3`, is less than a Gaussian's :math:`3(\sum_c (AS)_{jc}^2)^2`), a
+nonlinear one adds skewness; and the normalisation by :math:`\sum S'^4` differs from
+:math:`\sum_c (AS)_{jc}^4` whenever :math:`AS` is not triangular, so the kurtosis drifts
+along a recursion even on a linear model (from 3 to 82 over the 200 steps of the linear
+test model, ``tests/linear_model.py``).
+
+With additive noise (``Transition.additive``) the points carry no noise: the predicted
+distribution is :math:`y + w`, :math:`w \sim N(0, Q)` independent of :math:`y`, so
+:math:`W_j` is the points' and :math:`\Psi_j` gains the noise's exact share
+:math:`6\,P^y_{jj} Q_{jj} + 3 Q_{jj}^2` (:math:`P^y_{jj} = \sum_i w_i D_{ij}^2`).  With
+non-additive noise the points were drawn over the state and the noise, as the paper
+does, and :math:`D` already holds its effect.
+
+The estimate travels with the predicted belief (:class:`MomentGaussian` /
+:class:`MomentSqrtGaussian`, field :attr:`~MomentGaussian.moments`, a
+:class:`PredictedMoments`); the update draws its points with it and its posterior
+carries the same value unchanged (a Kalman update has no propagated points of its own);
+the next prediction draws with it too, and replaces it.  The first draw (a prior
+without moments) and the noise axes of an augmented draw use the stated ``skewness``
+and ``kurtosis``.  An estimate that is not finite, or violates the validity condition
+:math:`k > s^2` (else :math:`b \le 0`, eq. 20-22 give no points), or whose
+:math:`S'` does not exist, is replaced by the stated values; the replacement is flagged
+(:attr:`PredictedMoments.fallback`, the reason) and counted
+(:attr:`PredictedMoments.fallbacks`), never silent.
+
+On a linear-Gaussian model this filter is still the Kalman filter: every valid
+:math:`(s, k)` gives points with the exact mean and covariance, and linear models use
+nothing else (``tests/estimators/test_homm_predicted.py``), even though :math:`k \ne 3`
+there.
+
 Noise augmentation (eq. 22-23)
 ------------------------------
 For :math:`x_k = f(x_{k-1}, w_{k-1})` the paper draws over :math:`[x; w]`
@@ -68,13 +121,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
 from .linalg import Array
+from .models import Belief, Gaussian, SqrtGaussian
 from .rules import Factor, signed_factor
 
-__all__ = ["HighOrderMoment", "augmented_rule", "standardised_moments"]
+__all__ = ["MOMENT_SOURCES", "HighOrderMoment", "MomentGaussian", "MomentSqrtGaussian",
+           "PredictedMoments", "augmented_rule", "carry_update", "drawn_rule",
+           "paper_moments", "predicted_belief", "standardised_moments"]
+
+MOMENT_SOURCES = ("fixed", "predicted")
+"""Where :class:`HighOrderMoment` takes the moments it matches: the stated ``skewness`` and
+``kurtosis`` at every draw (``"fixed"``), or the predicted points' (``"predicted"``,
+[Ding 2017]'s mechanism; module docstring)."""
 
 
 def _per_axis(value: float | tuple[float, ...], n: int, what: str) -> tuple[float, ...]:
@@ -119,15 +181,46 @@ class HighOrderMoment:
         a tuple fixes the dimension.  0 for a Gaussian.
     kurtosis : float or tuple of float
         :math:`E\xi_j^4`; 3 for a Gaussian.  Must exceed ``skewness**2`` per axis.
+    moments : ``"fixed"`` or ``"predicted"``
+        ``"fixed"``: ``skewness``/``kurtosis`` at every draw (with 0, 3: Julier's
+        κ = 3 − n set).  ``"predicted"``: the moments of the predicted points
+        (:func:`paper_moments`, carried by the predicted belief); ``skewness``/``kurtosis``
+        (scalars) then serve the first draw, the noise axes and the fallback.
     """
 
     skewness: float | tuple[float, ...] = 0.0
     kurtosis: float | tuple[float, ...] = 3.0
     name: str = "high-order-moment"
+    moments: str = "fixed"
+
+    def __post_init__(self) -> None:
+        if self.moments not in MOMENT_SOURCES:
+            raise ValueError(f"moments must be one of {', '.join(MOMENT_SOURCES)}, "
+                             f"got {self.moments!r}")
+        if self.moments == "predicted":
+            if isinstance(self.skewness, tuple) or isinstance(self.kurtosis, tuple):
+                raise ValueError("predicted moments take scalar skewness and kurtosis "
+                                 "(the first draw's, the same on every axis)")
+            if not self.kurtosis > self.skewness**2:
+                raise ValueError(f"moment matching needs kurtosis > skewness**2 "
+                                 f"(skewness {self.skewness}, kurtosis {self.kurtosis})")
 
     @property
     def settings(self) -> dict[str, float | str]:
-        return {"skewness": self.skewness, "kurtosis": self.kurtosis}  # type: ignore[dict-item]
+        return {"moments": self.moments, "skewness": self.skewness,  # type: ignore[dict-item]
+                "kurtosis": self.kurtosis}
+
+    def for_draw(self, belief: Belief, noise_dim: int = 0) -> HighOrderMoment:
+        """The fixed rule this draw uses: ``self`` for fixed moments or a belief without
+        predicted ones; else the belief's moments on its ``belief.dim`` axes and the stated
+        ones on the ``noise_dim`` noise axes appended by an augmented draw."""
+        m = getattr(belief, "moments", None)
+        if self.moments == "fixed" or m is None:
+            return self
+        d = belief.dim
+        return HighOrderMoment((m.skewness,) * d + (float(self.skewness),) * noise_dim,
+                               (m.kurtosis,) * d + (float(self.kurtosis),) * noise_dim,
+                               name=self.name)
 
     def points(self, n: int) -> tuple[Array, Array]:
         return _homm_points(_per_axis(self.skewness, n, "skewness"),
@@ -137,6 +230,102 @@ class HighOrderMoment:
         """:math:`C = [\\sqrt{w_i} D_i]_{i \\ge 1}`; centre :math:`\\sqrt{|w_0|} D_0`, signed."""
         n = (D.shape[-2] - 1) // 2
         return signed_factor(D, self.points(n)[1])
+
+
+@dataclass(frozen=True)
+class PredictedMoments:
+    r"""The moments a predicted belief carries to the next HoMM draw (module docstring).
+
+    skewness, kurtosis : what the next draws match (:math:`s = \sqrt N\phi_1`,
+        :math:`k = N\phi_2`); the stated values when the estimate was refused.
+    estimate : the estimate :math:`(s, k)` itself (NaN when it could not be formed).
+    fallback : ``None``, or why the estimate was refused this prediction.
+    fallbacks, predictions : refused estimates and predictions so far in the recursion.
+    """
+
+    skewness: float
+    kurtosis: float
+    estimate: tuple[float, float]
+    fallback: str | None
+    fallbacks: int
+    predictions: int
+
+
+@dataclass(frozen=True)
+class MomentGaussian(Gaussian):
+    """A dense :class:`~estimators.models.Gaussian` with the predicted points' moments."""
+
+    moments: PredictedMoments | None = None
+
+
+@dataclass(frozen=True)
+class MomentSqrtGaussian(SqrtGaussian):
+    """A :class:`~estimators.models.SqrtGaussian` with the predicted points' moments."""
+
+    moments: PredictedMoments | None = None
+
+
+def paper_moments(D: Array, w: Array, P: Array, noise_cov: Array | None = None
+                  ) -> tuple[float, float, str | None]:
+    r"""[Ding 2017]'s averaged :math:`(s, k) = (\sqrt N\phi_1, N\phi_2)` of the
+    propagated deviations ``D`` (m, d) with weights ``w`` (m,) and predicted covariance
+    ``P`` (d, d), plus the additive Gaussian noise ``noise_cov`` when the points do not
+    carry it (module docstring); the third element is ``None`` or why there is no
+    estimate (then ``s, k`` are NaN)."""
+    W = w @ D**3
+    Psi = w @ D**4
+    if noise_cov is not None:
+        q = np.diagonal(noise_cov)
+        Psi = Psi + 6.0 * (w @ D**2) * q + 3.0 * q**2
+    try:
+        S = np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return np.nan, np.nan, "the predicted covariance has no Cholesky factor"
+    c3, c4 = float(np.sum(S**3)), float(np.sum(S**4))
+    if not (c3 != 0.0 and c4 > 0.0):
+        return np.nan, np.nan, f"sum of the factor's cubes {c3:.3g} (fourth powers {c4:.3g})"
+    with np.errstate(over="ignore", invalid="ignore"):
+        s, k = float(np.sum(W)) / c3, float(np.sum(Psi)) / c4
+    if not (np.isfinite(s) and np.isfinite(k)):
+        return np.nan, np.nan, "the moment sums are not finite"
+    return s, k, None
+
+
+def _with_moments(belief: Belief, moments: PredictedMoments) -> Belief:
+    if isinstance(belief, SqrtGaussian):
+        return MomentSqrtGaussian(belief.mean, belief.sqrt, belief.space, moments)
+    return MomentGaussian(belief.mean, belief.cov, belief.space, moments)
+
+
+def predicted_belief(rule: Any, prior: Belief, predicted: Belief, D: Array, w: Array,
+                     noise_cov: Array | None) -> Belief:
+    """``predicted`` with the moments of its points for a predicted-moments HoMM ``rule``
+    (guarded and counted, module docstring); unchanged for any other rule."""
+    if not (isinstance(rule, HighOrderMoment) and rule.moments == "predicted"):
+        return predicted
+    before = getattr(prior, "moments", None)
+    done, failed = (0, 0) if before is None else (before.predictions, before.fallbacks)
+    s, k, why = paper_moments(D, w, predicted.cov, noise_cov)
+    if why is None and not k > s * s:
+        why = f"estimated kurtosis {k:.4g} is not above skewness² {s * s:.4g}"
+    if why is None:
+        m = PredictedMoments(s, k, (s, k), None, failed, done + 1)
+    else:
+        m = PredictedMoments(float(rule.skewness), float(rule.kurtosis), (s, k), why,
+                             failed + 1, done + 1)
+    return _with_moments(predicted, m)
+
+
+def drawn_rule(rule: Any, belief: Belief, noise_dim: int = 0) -> Any:
+    """The rule a draw from ``belief`` uses (:meth:`HighOrderMoment.for_draw`; any other
+    rule as it is)."""
+    return rule.for_draw(belief, noise_dim) if isinstance(rule, HighOrderMoment) else rule
+
+
+def carry_update(prior: Belief, posterior: Belief) -> Belief:
+    """The posterior with the prior's predicted moments, unchanged (module docstring)."""
+    m = getattr(prior, "moments", None)
+    return posterior if m is None else _with_moments(posterior, m)
 
 
 def augmented_rule(n: int, m: int, skewness: float | tuple[float, ...] = 0.0,

@@ -33,11 +33,12 @@ over the state augmented with the noise input.  A transition with its own
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
 from .finite import require_finite, require_finite_input
+from .homm import HighOrderMoment, carry_update, drawn_rule, predicted_belief
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
@@ -73,18 +74,20 @@ def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition
                   u: Any = None, method: SqrtMethod = "cholesky") -> Belief:
     """Time update: propagate sigma points through ``model.f``."""
     require_finite_input(u)
+    r = drawn_rule(rule, belief, 0 if model.additive else model.noise.dim)  # HoMM moments
     if model.additive:
-        X, _, _, wm = draw(rule, belief, None, method)
+        X, _, _, wm = draw(r, belief, None, method)
         Y = model.f(X, u)
     else:
-        X, W, _, wm = draw(rule, belief, model.noise, method)
+        X, W, _, wm = draw(r, belief, model.noise, method)
         Y = model.f(X, u, W)
     require_finite("transition output", Y)
     space = model.space or belief.space
     mean = space.mean(Y, wm)
-    fac = rule.factor(space.local(mean[..., None, :], Y))
-    cov = _covariance(form, fac, model.noise if model.additive else None)
-    return _belief(form, mean, cov, space)
+    D = space.local(mean[..., None, :], Y)
+    cov = _covariance(form, r.factor(D), model.noise if model.additive else None)
+    out = _belief(form, mean, cov, space)
+    return predicted_belief(rule, belief, out, D, wm, model.noise.cov if model.additive else None)
 
 
 def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement,
@@ -92,6 +95,7 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
     """Measurement update with points redrawn from ``belief`` (a batch of beliefs when its
     mean has leading axes; ``z`` then (..., nz))."""
     require_finite("measurement", z)
+    rule = drawn_rule(rule, belief)  # HoMM: the predicted moments
     X, _, dX, wm = draw(rule, belief, None, method)
     Z = model.h(X)
     require_finite("measurement model output", Z)
@@ -131,7 +135,8 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
         post = factorise("svd", _posterior_factor(Cx, Cz, K, c0x, c0z, fac.sign), K @ R.sqrt)
         w = matvec(swap(U), nu) / s
     mean = belief.space.retract(belief.mean, matvec(K, nu))
-    return _belief(form, mean, post, belief.space), Innovation(nu, Szz, nis_of(w))
+    return (carry_update(belief, _belief(form, mean, post, belief.space)),
+            Innovation(nu, Szz, nis_of(w)))
 
 
 def _posterior_factor(Cx: Array, Cz: Array, K: Array, c0x: Array | None, c0z: Array | None,
@@ -154,8 +159,6 @@ class SigmaPointFilter:
     rule: PointRule
     form: Form = "sqrt"
     sqrt_method: SqrtMethod = "cholesky"  # how a dense belief is factored to draw points
-    #: Its steps accept a batch of beliefs (leading axis: the runs; :mod:`estimators.batch`).
-    batched: ClassVar[bool] = True
 
     def init(self, mean: Array, space: Space, cov: Array | None = None,
              sqrt: Array | None = None) -> Belief:
@@ -172,11 +175,25 @@ class SigmaPointFilter:
         return SqrtGaussian(mean, sqrt, space)
 
     def predict(self, belief: Belief, model: Transition, u: Any = None) -> Belief:
+        self._single(belief)
         return sigma_predict(self.rule, self.form, belief, model, u, self.sqrt_method)
 
     def update(self, belief: Belief, model: Measurement, z: Array
                ) -> tuple[Belief, Innovation]:
+        self._single(belief)
         return sigma_update(self.rule, self.form, belief, model, z, self.sqrt_method)
+
+    def _single(self, belief: Belief) -> None:
+        if np.ndim(belief.mean) > 1 and not self.batched:
+            raise ValueError(f"{self.name} with predicted moments has no batched form; "
+                             "run it per run")
+
+    @property
+    def batched(self) -> bool:
+        """Its steps accept a batch of beliefs (leading axis: the runs;
+        :mod:`estimators.batch`): every rule but the HoMM rule with predicted moments,
+        whose moments are carried per belief."""
+        return not (isinstance(self.rule, HighOrderMoment) and self.rule.moments == "predicted")
 
     @property
     def supports_partitioned(self) -> bool:

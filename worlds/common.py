@@ -18,6 +18,7 @@ from typing import Any
 import worlds.schema as ws
 from estimators.filters import SETTINGS, describe_settings, make_filter
 from estimators.hinf import MIN_GAMMA
+from estimators.homm import MOMENT_SOURCES
 from estimators.rules import JULIER_KAPPA
 from worlds import limits
 from worlds.units import DEG, DEG_H
@@ -187,7 +188,8 @@ RULE_SETTINGS: dict[str, dict[str, ws.Field]] = {
     "central_difference": {"h": ws.Number(ws.Interval(1.0, 10.0))},
     "hinf": {"gamma": ws.Number(ws.Interval(MIN_GAMMA, math.inf)),
              "on_failure": ws.String(choices=("raise", "kalman"))},
-    "homm": {"skewness": ws.Number(ws.Interval(-10.0, 10.0)),
+    "homm": {"moments": ws.String(choices=MOMENT_SOURCES),
+             "skewness": ws.Number(ws.Interval(-10.0, 10.0)),
              "kurtosis": ws.Number(ws.Interval(1.0, 100.0))},
     "iterated": {"iterations": ws.Integer(ws.Interval(1, 100)),
                  "tolerance": ws.Number(ws.Interval(0.0, 1.0))},
@@ -271,7 +273,8 @@ class TunedFilters:
 TABLE_KEYS = {"unscented": "alpha, beta, kappa (alpha = 1, beta = 2, kappa = 0 is the cubature "
               "point set; say which standard you take)",
               "central_difference": "h (sqrt(3) is optimal for a Gaussian prior)",
-              "hinf": "gamma and on_failure", "homm": "skewness and kurtosis",
+              "hinf": "gamma and on_failure",
+              "homm": 'moments ("predicted": [Ding 2017]\'s, or "fixed"), skewness and kurtosis',
               "iterated": "iterations and tolerance"}
 
 

@@ -233,6 +233,8 @@ class ErrorGrid:
     groups: Sequence[Sequence[int]] = ()
     units: Sequence[str] = ()
     """Per column, what ``{unit}`` in ``ylabel`` becomes."""
+    windows: Sequence[float | None] = ()
+    """Per column, the last time shown (``None``: the whole run), e.g. a transient."""
 
 
 def _drawn(p: ErrorPanel) -> set[str]:
@@ -254,7 +256,7 @@ def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
     t = run0(result).times
     fig, axes = plt.subplots(len(names), len(grid.axes),
                              figsize=(grid.width, grid.top + 0.4 + 1.9 * len(names)),
-                             sharex=True, sharey=grid.sharey, squeeze=False)
+                             sharex="col", sharey=grid.sharey, squeeze=False)
     lim = np.zeros(len(grid.axes))
     drawn: set[str] = set()
     for row, name in enumerate(names):
@@ -272,6 +274,9 @@ def error_grid(result: CampaignResult, path: Path, grid: ErrorGrid,
     for group in grid.groups:
         lim[list(group)] = max(lim[list(group)])
     _set_limits(axes, lim, grid.sharey)
+    for col, end in enumerate(grid.windows):
+        if end is not None:
+            axes[0, col].set_xlim(t[0], end)
     legend = [LEGEND[k]() for k in grid.legend if k in drawn]
     bottom_legend(fig, legend)
     lines = textwrap.wrap(note, int(grid.width * 15)) if note else []

@@ -49,6 +49,7 @@ def test_an_unregistered_kind_is_refused():
         run_campaign(Nowhere(), runs=1, seed=0, filters=["ekf"])
 
 
+@pytest.mark.filterwarnings("ignore:Port .* is already in use:UserWarning")  # another cluster
 def test_dask_cluster_matches_a_campaign_in_this_process():
     distributed = pytest.importorskip("dask.distributed")
 

@@ -40,7 +40,9 @@ class ShipScores(EstimatorRun):
 
     err : (M, 3) roll/pitch/yaw error; sigma : (M, 3) own std of those angles;
     err_bias : (M, 3) ``α - α̂``; nees6, nees3 : (M,) NEES of ``[δθ, δα]`` and ``δθ``;
-    cycles : predict + update cycles.  The :class:`~slam.results.EstimatorRun` fields:
+    cycles : predict + update cycles; moments : (M, 3) skewness, kurtosis and refused flag
+    of a HoMM filter with predicted moments (``None`` otherwise).  The
+    :class:`~slam.results.EstimatorRun` fields:
     nis (M,) per update with ``nis_dof``; time_s over the ``cycles`` (the smoother: its
     solve).
     """
@@ -52,6 +54,7 @@ class ShipScores(EstimatorRun):
     nees6: Array
     nees3: Array
     cycles: int
+    moments: Array | None = None
 
 
 def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScores:
@@ -70,7 +73,8 @@ def score(est: EstimateSeries, log: ShipLog, divergence_rad: float) -> ShipScore
     if not diverged and not final <= divergence_rad:
         diverged, failure = True, (f"final attitude error {math.degrees(final):.3g} deg exceeds "
                                    f"{math.degrees(divergence_rad):.3g} deg")
-    return ShipScores(est.name, err, sig, e6[:, 3:], nees6, nees3, est.cycles, nis=est.nis,
+    return ShipScores(est.name, err, sig, e6[:, 3:], nees6, nees3, est.cycles,
+                      getattr(est, "moments", None), nis=est.nis,
                       nis_dof=est.nis_dof, time_s=est.time_s, diverged=diverged,
                       failure=failure, extra_time_s=est.extra_time_s)
 
@@ -156,15 +160,25 @@ def summarize_scores(scores: list[ShipScores], times: Array, steady_from: float,
     return out
 
 
-def paired_mse(a: list[ShipScores], b: list[ShipScores], steady: Array) -> dict[str, Any]:
-    r"""Per-run difference of the steady-state attitude mean squared error (arcmin²),
-    ``a`` minus ``b`` over the runs neither diverged on: mean, its standard error and the
-    runs where ``a`` is better (a paired comparison on the same data)."""
-    pairs = [(x, y) for x, y in zip(a, b) if not (x.diverged or y.diverged)]
-    if len(pairs) < 2:
+def homm_moments(scores: list[ShipScores], times: Array) -> dict[str, Any]:
+    """What a HoMM filter with predicted moments drew with ([Ding 2017] φ₁√N, φ₂N;
+    :mod:`estimators.homm`), over its runs that did not diverge: the kurtosis and skewness
+    quantiles over every update after the first (5th, 50th, 95th percentile, min, max)
+    and over the first 30 s, and the refused estimates (fallbacks to the stated moments)
+    out of the predictions; ``{}`` for any other estimator."""
+    good = [s for s in scores if not s.diverged and s.moments is not None]
+    if not good:
         return {}
-    d = np.array([np.nanmean((x.err[steady] ** 2).sum(axis=1))
-                  - np.nanmean((y.err[steady] ** 2).sum(axis=1)) for x, y in pairs])
-    d = d / ARCMIN**2
-    return {"mean": float(d.mean()), "se": float(d.std(ddof=1) / math.sqrt(len(d))),
-            "a_better_runs": int(np.sum(d < 0)), "runs": len(d)}
+    m = np.stack([s.moments for s in good])[:, 1:]  # (R, M-1, 3): epoch 0 has none
+    early = times[1:] <= 30.0
+
+    def q(x: Array) -> dict[str, float]:
+        x = x[np.isfinite(x)]
+        return {"p5": float(np.percentile(x, 5)), "median": float(np.median(x)),
+                "p95": float(np.percentile(x, 95)), "min": float(x.min()),
+                "max": float(x.max())}
+
+    return {"runs": len(good), "kurtosis": q(m[..., 1]), "skewness": q(m[..., 0]),
+            "kurtosis_first_30s": q(m[:, early, 1]),
+            "fallbacks": int(np.nansum(m[..., 2])),
+            "predictions": int(np.sum(np.isfinite(m[..., 1])))}

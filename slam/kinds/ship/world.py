@@ -18,7 +18,9 @@ their SI units.  File layout::
                  magnetometer_sigma_percent
     [filters]    names, paper_model (filters run on the paper's model), variants
                  ("filter:treatment" extra runs for the effects table), initial_error_deg,
-                 initial_attitude_sigma_deg, initial_bias_sigma_deg_h
+                 initial_attitude_sigma_deg, initial_bias_sigma_deg_h; the settings
+                 tables [filters.unscented], [filters.central_difference],
+                 [filters.homm] (required by the filters that take them)
     [scoring]    converge_arcmin, steady_state_from_s, divergence_deg
     [paper]      free-form: the paper's claims, passed through to summary.json
 
@@ -116,8 +118,9 @@ class VectorSpec:
 
 
 @dataclass(frozen=True)
-class ShipFilterSpec(wc.JointOnly):
-    """Filters, their treatments and the initial belief (radians, rad/s)."""
+class ShipFilterSpec(wc.TunedFilters, wc.JointOnly):
+    """Filters, their treatments, their settings tables and the initial belief (radians,
+    rad/s)."""
 
     names: tuple[str, ...]
     paper_model: tuple[str, ...]
@@ -203,6 +206,7 @@ WORLD = wc.world(KIND, ShipWorld, {
         .to("initial_error_rad"),
         "initial_attitude_sigma_deg": wc.attitude_sigma("initial_attitude_sigma_rad"),
         "initial_bias_sigma_deg_h": wc.bias_sigma(3600.0),
+        **wc.settings_tables(),
     }, into=ShipFilterSpec),
     "scoring": ws.Section({
         "converge_arcmin": ws.Number(ws.positive(600.0), default=10.0, scale=DEG / 60.0)
@@ -242,5 +246,12 @@ def work(w: ShipWorld) -> Iterator[limits.Size]:
 
 def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
           ) -> ShipWorld:
-    """Validate a parsed ``ship`` TOML document and build its :class:`ShipWorld`."""
-    return wc.parse_checked(WORLD, RULES, data, name, source)
+    """Validate a parsed ``ship`` TOML document and build its :class:`ShipWorld`; every
+    settings table a listed filter or variant needs must be stated."""
+    root = ws.Where(source, "")
+    v = ws.read_table(data, SCHEMA, root)
+    ws.check_rules(RULES, v, root)
+    f = v["filters"]
+    wc.check_settings(f, [*f["names"], *(f"{n}:{t}" for n, t in f["variants"])],
+                      root.child("filters"))
+    return ws.build(WORLD, v, name=name, source=source)

@@ -65,15 +65,47 @@ def test_a_small_campaign_through_the_command_line(tmp_path) -> None:
     assert "| (a) | ukf:additive |" in REPORT.markdown(s)
 
 
+def test_the_report_and_the_terminal_decide(tmp_path) -> None:
+    """The headline and the rank tables lead the report and close the terminal output;
+    every filter's settings are in summary.json and beside its row; the paper's ordering
+    is tested pair by pair."""
+    res, out, s = _run(tmp_path, "--no-plots")
+    ranking = s["ranking"]
+    assert set(ranking) == {"attitude_steady", "attitude"}
+    for block in ranking.values():
+        assert set(block["rows"]) == FILTERS and block["runs"] == 2
+        assert [block["rows"][n]["rank"] for n in block["order"]] == [1, 2, 3, 4, 5]
+    assert s["headline"].startswith("Attitude, steady state: ")
+    assert s["filters"]["ukf"]["settings"] == {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}
+    assert s["filters"]["ukf"]["settings_text"] == "α = 1, β = 0, κ = 3 − n"
+    assert s["filters"]["hommukf"]["settings"]["moments"] == "predicted"
+    assert s["filters"]["hommukf"]["homm_moments"]["predictions"] == 2 * 8  # 2 runs x 8 predictions
+    po = s["paper_ordering"]
+    assert po["order"] == ["hommukf", "ukf", "cdkf"] and len(po["pairs"]) == 6
+    report = (out / "report.md").read_text(encoding="utf-8")
+    titles = [line for line in report.splitlines() if line.startswith("## ")]
+    assert titles[0] == "## Decision" and titles[1].startswith("## Ranking: attitude, steady")
+    assert "## The paper's ordering: ranks, paired ΔMSE and consistency" in titles
+    assert titles.index("## Filter settings") < titles.index("## Results")
+    assert "| unscented (α = 1, β = 0, κ = 3 − n) |" in report  # beside the effects row
+    assert "rank" in res.output and "ΔMSE vs best (± s.e.)" in res.output
+    assert s["headline"].split(".")[0][:60] in res.output.replace("\n", " ")
+    text = res.output.split("\n\n" + "2 runs x")[0]  # the CLI's closing line holds the path
+    assert max(map(len, text.splitlines())) <= 100
+
+
 def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
     """Every figure is written; the attitude panels' y range leaves out the transient
-    before 30 s (here the 8 s run's last epoch alone sets it)."""
+    before 30 s (here the 8 s run's last epoch alone sets it), and a fourth column draws
+    the yaw transient itself (the first 30 s, here the whole 8 s) on its own scale."""
     import slam.kinds.ship.figures as figures
 
-    panels, real = [], figures.error_grid
+    panels, grids, real = [], [], figures.error_grid
 
     def spy(result, path, grid, panel, colours):
         panels.extend((panel(n, c), result) for n in figures._names(result) for c in range(3))
+        transient = [panel(n, 3) for n in figures._names(result)]
+        grids.append((grid, transient, [panel(n, 2) for n in figures._names(result)]))
         return real(result, path, grid, panel, colours)
 
     monkeypatch.setattr(figures, "error_grid", spy)
@@ -82,6 +114,10 @@ def test_the_report_figures_are_drawn(tmp_path, monkeypatch) -> None:
     for f in REPORT.figures():
         assert (out / f).stat().st_size > 10_000, f
     assert len(panels) == 9  # hommukf, ekf and the smoother, three axes each
+    (grid, transient, yaw), = grids
+    assert len(grid.axes) == 4 and grid.windows == (None, None, None, 8.0)
+    for t, y in zip(transient, yaw):
+        assert t.settle == 0 and (t.env is None or np.array_equal(t.env, y.env, equal_nan=True))
     for p, result in panels:
         times = result.outcomes[0].times
         assert p.settle == len(times) - 1 and times[p.settle] == times[-1]

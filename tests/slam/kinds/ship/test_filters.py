@@ -51,7 +51,7 @@ def _errors(w: ShipWorld, log: ShipLog, trans: Transition, P0: np.ndarray
     vec = vector_measurement(log)
     out = {}
     for name, t, main in estimators(w, [*w.filters.names]):
-        s = run_filter(log, name, treatment(t), x0, P0, trans, vec, main)
+        s = run_filter(log, w.filters.make(name), treatment(t), x0, P0, trans, vec, main)
         assert not s.diverged, s.failure
         out[s.name] = float(np.linalg.norm(UnitQuaternion().local(s.means[:, :4],
                                                                   log.update_truth_q),
@@ -83,6 +83,7 @@ def test_a_numerical_failure_ends_the_run_as_diverged(exact) -> None:
     gyro[250] = np.nan
     bad = dataclasses.replace(log, gyro=gyro)
     x0, P0 = initial_belief(w, bad)
-    s = run_filter(bad, "hommukf", treatment("paper"), x0, P0, trans, vector_measurement(bad))
+    s = run_filter(bad, w.filters.make("hommukf"), treatment("paper"), x0, P0, trans,
+                   vector_measurement(bad))
     assert s.diverged and "finite" in (s.failure or "").lower()
     assert np.all(np.isfinite(s.means[:3])) and np.all(np.isnan(s.means[3:]))

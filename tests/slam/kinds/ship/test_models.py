@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-from estimators import make_filter
 from estimators.homm import HighOrderMoment
 from nav.pseudo_observation import pseudo_observation_model, xi_matrix
 from nav.quaternion import qexp, qmul, qnormalize, qrotate
@@ -134,8 +133,10 @@ def test_additive_mean_is_the_renormalised_sum() -> None:
 
 
 def test_hommukf_moment_sets_on_the_ship_state() -> None:
-    rule = make_filter("hommukf").rule
-    assert rule == HighOrderMoment()
+    """The bundled world's HoMM-UKF takes the predicted points' moments; its first draw
+    (the Gaussian prior) is the stated Gaussian set."""
+    rule = ship_world(10.0).filters.make("hommukf").rule
+    assert rule == HighOrderMoment(0.0, 3.0, moments="predicted")
     xi, wts = rule.points(6)
     np.testing.assert_allclose(wts @ xi**2, 1.0, rtol=1e-14)
     np.testing.assert_allclose(wts @ xi**3, 0.0, atol=1e-14)

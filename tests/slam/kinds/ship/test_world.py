@@ -4,6 +4,7 @@ the command line: exit code 2, nothing written)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from importlib.resources import files
 
@@ -52,7 +53,40 @@ BAD = [
     ({"scoring.steady_state_from_s": 300.0}, "scoring.steady_state_from_s", "below"),
     ({"filters.initial_error_deg": [2.0, 4.0]}, "filters.initial_error_deg", "3 numbers"),
     ({"vectors.gravity_sigma_mg": 0.0}, "vectors.gravity_sigma_mg", "(0, 500]"),
+    ({"filters.homm.moments": "adaptive"}, "filters.homm.moments", "'fixed', 'predicted'"),
+    ({"filters.homm": {"skewness": 0.0, "kurtosis": 3.0}}, "filters.homm.moments", "missing"),
+    ({"filters.unscented.kappa": "3"}, "filters.unscented.kappa", '"3-n"'),
 ]
+
+
+@pytest.mark.parametrize("table", ["unscented", "central_difference", "homm"])
+def test_every_filter_setting_is_stated(table) -> None:
+    """A world whose filters (or variants) take a settings table must state it."""
+    doc = ship_doc()
+    del doc["filters"][table]
+    with pytest.raises(WorldError) as info:
+        world_from_dict(doc, name="bad", source="bad.toml")
+    assert info.value.key == f"filters.{table}" and "missing (required by" in str(info.value)
+    if table == "unscented":
+        assert "ukf, ukf:additive, ukf:manifold" in str(info.value)
+
+
+def test_the_worlds_state_their_settings_and_the_harder_one_only_its_initial_error() -> None:
+    paper, hard = load_world("ship"), load_world("ship-large-error")
+    assert paper.filters.settings_of("ukf") == {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}
+    assert paper.filters.settings_of("hommukf") == {"moments": "predicted", "skewness": 0.0,
+                                                    "kurtosis": 3.0}
+    assert paper.filters.make("cdkf").rule.h == pytest.approx(math.sqrt(3.0))
+    assert hard.filters.initial_error_rad == pytest.approx((10 * DEG, 10 * DEG, 45 * DEG))
+    assert hard.filters.initial_attitude_sigma_rad == hard.filters.initial_error_rad
+    same = dataclasses.replace(hard, name=paper.name, description=paper.description,
+                               source=paper.source,
+                               filters=dataclasses.replace(
+                                   hard.filters,
+                                   initial_error_rad=paper.filters.initial_error_rad,
+                                   initial_attitude_sigma_rad=(
+                                       paper.filters.initial_attitude_sigma_rad)))
+    assert same == paper
 
 
 @pytest.mark.parametrize(("overrides", "key", "rule"), BAD)
