@@ -193,8 +193,9 @@ def check_variance(value: float, power: int, interval: Interval, scale: float,
     """Refuse a non-zero σ (``power`` 2) or variance (``power`` 1), already in SI units,
     whose variance ``value**power`` is below :data:`~worlds.limits.MIN_VARIANCE`: its
     square underflows (to 0 or a subnormal number) in the filters' covariances, which then
-    are not positive definite.  0 stays allowed where ``interval`` allows it."""
-    if value == 0.0 or abs(value) ** power >= MIN_VARIANCE:
+    are not positive definite.  0 stays allowed where ``interval`` allows it; a value
+    given as non-zero that the unit conversion rounds to 0 is refused too."""
+    if (value == 0.0 and given == 0) or abs(value) ** power >= MIN_VARIANCE:
         return
     lo = MIN_VARIANCE ** (1.0 / power) / scale  # the smallest value in file units
     zero = "0 or " if 0.0 in interval else ""

@@ -72,6 +72,18 @@ def test_an_underflowing_noise_is_a_world_error_naming_the_key(module, key, spec
         world_from_dict(_doc(module, **{key: 0.0}))  # 0 (no noise) is still allowed
 
 
+@pytest.mark.parametrize(("module", "key", "spec"), CASES,
+                         ids=[f"{m}:{k}" for m, k, _ in CASES])
+def test_a_noise_the_unit_conversion_rounds_to_zero_is_refused(module, key, spec):
+    """The smallest subnormal, 5e-324 in the file's unit, times a unit factor below 1 is
+    0 in SI units: still a σ given as non-zero (found by the fuzz harness: a star sensor σ
+    of 5e-324 arcsec passed as 0 and raised in the filters' models)."""
+    tiny = 5e-324
+    value = [tiny] * spec.length if isinstance(spec, ws.Vector) else tiny
+    with pytest.raises(WorldError, match="underflows in the filters"):
+        world_from_dict(_doc(module, **{key: value}), source="w.toml")
+
+
 def test_the_issue_cases_name_the_key_and_the_smallest_value():
     with pytest.raises(WorldError) as err:
         world_from_dict(_doc("alignment", **{"filters.velocity_sigma_mps": 1e-300}),
