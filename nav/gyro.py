@@ -112,20 +112,22 @@ def ordered_product(E: Array) -> Array:
 
 
 def propagate_points(X: Array, gyro: Array, dt: float) -> Array:
-    r"""Carry states ``X`` (m, 7) through the gyro samples ``gyro`` (n, 3) of one interval.
+    r"""Carry states ``X`` (m, 7) through the gyro samples ``gyro`` (n, 3) of one interval
+    (a batch of runs: ``X`` (..., m, 7) with ``gyro`` (..., n, 3)).
 
     :math:`q' = \mathrm{normalize}(q \otimes \prod_k \mathrm{Exp}((\tilde\omega_k - b)\,dt))`,
     :math:`b' = b`; all points and samples at once (one batched ``qexp``).
     """
-    q, b = X[:, :4], X[:, 4:]
-    m, n = X.shape[0], gyro.shape[0]
+    q, b = X[..., :4], X[..., 4:]
+    m, n = X.shape[-2], gyro.shape[-2]
+    lead = np.broadcast_shapes(X.shape[:-2], gyro.shape[:-2])
     size = 1 << max(n - 1, 0).bit_length()  # padded with identities to a power of two
-    E = np.zeros((m, size, 4))
-    E[:, n:, 0] = 1.0
-    E[:, :n] = qexp((gyro[None, :, :] - b[:, None, :]) * dt)
-    out = np.empty_like(X)
-    out[:, :4] = qnormalize(qmul(q, ordered_product(E)))
-    out[:, 4:] = b
+    E = np.zeros(lead + (m, size, 4))
+    E[..., n:, 0] = 1.0
+    E[..., :n, :] = qexp((gyro[..., None, :, :] - b[..., :, None, :]) * dt)
+    out = np.empty(lead + X.shape[-2:])
+    out[..., :4] = qnormalize(qmul(q, ordered_product(E)))
+    out[..., 4:] = b
     return out
 
 

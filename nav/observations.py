@@ -59,7 +59,7 @@ def quaternion_measurement(sigma: float | ArrayLike, rest_dim: int = 3) -> Measu
     Jacobian :math:`[I_3\ 0_{3\times r}]` with :math:`r` = ``rest_dim``.
     """
     H = np.hstack([np.eye(3), np.zeros((3, rest_dim))])
-    return Measurement(lambda X: X[:, :4], Noise.from_sigmas(_sigmas(sigma, (3,))),
+    return Measurement(lambda X: X[..., :4], Noise.from_sigmas(_sigmas(sigma, (3,))),
                        UnitQuaternion(), jacobian=lambda x: H)
 
 
@@ -68,11 +68,13 @@ def _body_vectors(vectors: Array, sigmas: Array, rest_dim: int) -> Measurement:
     k = vectors.shape[0]
 
     def h(X: Array) -> Array:
-        return qrotate(qconj(X[:, None, :4]), vectors[None, :, :]).reshape(X.shape[0], 3 * k)
+        return qrotate(qconj(X[..., None, :4]), vectors).reshape(X.shape[:-1] + (3 * k,))
 
     def jac(x: Array) -> Array:
-        b = qrotate(qconj(x[None, :4]), vectors)  # (k, 3)
-        return np.hstack([skew(b).reshape(3 * k, 3), np.zeros((3 * k, rest_dim))])
+        b = qrotate(qconj(x[..., None, :4]), vectors)  # (..., k, 3)
+        lead = x.shape[:-1]
+        return np.concatenate([skew(b).reshape(lead + (3 * k, 3)),
+                               np.zeros(lead + (3 * k, rest_dim))], axis=-1)
 
     return Measurement(h, Noise.from_sigmas(sigmas), Euclidean(3 * k), jacobian=jac)
 

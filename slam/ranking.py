@@ -211,7 +211,7 @@ def ordering(metric: Metric, better: str, worse: str) -> dict[str, Any]:
     """The paired test of a paper's claim that filter ``better`` beats ``worse`` on
     ``metric``: :func:`paired` of their per-run MSE (``better - worse``, so a negative mean
     agrees with the claim) and a ``verdict``: ``reproduced`` (mean below −:data:`LEVEL`
-    s.e.), ``reversed`` (above +:data:`LEVEL` s.e.), ``not significant``, ``identical``
+    s.e.), ``reversed`` (above +:data:`LEVEL` s.e.), ``not significant``, ``equal``
     (within :data:`IDENTICAL_RTOL` of the MSE) or, with fewer than 2 paired runs, ``None``
     and a ``verdict_reason``."""
     a = np.asarray(metric.per_run_mse[better], dtype=float)
@@ -225,7 +225,7 @@ def ordering(metric: Metric, better: str, worse: str) -> dict[str, Any]:
     out["rmse_better"], out["rmse_worse"] = math.sqrt(float(np.mean(a[ok]))), math.sqrt(ref)
     dm, se = out["mean"], out["se"]
     if abs(dm) <= IDENTICAL_RTOL * max(abs(ref), 1e-300):
-        out["verdict"] = "identical"
+        out["verdict"] = "equal"
     elif se > 0.0 and abs(dm) <= LEVEL * se:
         out["verdict"] = "not significant"
     else:

@@ -31,7 +31,7 @@ def test_ordering_against_a_hand_computation() -> None:
                      "a", "b")
     assert noisy["verdict"] == "not significant"
     same = ordering(Metric("p", "p", "m", {"a": [1.0, 2.0], "b": [1.0, 2.0]}), "a", "b")
-    assert same["verdict"] == "identical" and same["z"] is None and same["z_reason"]
+    assert same["verdict"] == "equal" and same["z"] is None and same["z_reason"]
     one = ordering(Metric("p", "p", "m", {"a": [1.0, np.nan], "b": [2.0, 1.0]}), "a", "b")
     assert one["verdict"] is None and "at least 2" in one["verdict_reason"]
 

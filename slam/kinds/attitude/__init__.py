@@ -7,4 +7,4 @@ from slam.kinds.attitude.world import parse, work
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize_attitude"), Deferred(f"{__name__}.report:REPORT"),
-            work=work)
+            work=work, run_batch=Deferred(f"{__name__}.run:run_batch"))

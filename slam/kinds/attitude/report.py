@@ -203,12 +203,12 @@ def ordering_sentence(summary: dict[str, Any]) -> str:
     verdicts = [t.get("verdict") for t in tests]
     claims = "; ".join(f"{t['better']} < {t['worse']}: {t.get('verdict') or 'untested'}"
                        + (f" (z = {t['z']:+.1f})" if t.get("z") is not None
-                          and t.get("verdict") != "identical" else "")
+                          and t.get("verdict") != "equal" else "")
                        for t in tests)
     head = "The paper's Table 2 ordering (SRCKF < SRUKF < SRCDKF, mean absolute error) is "
     if all(v == "reproduced" for v in verdicts):
         return head + f"reproduced on the attitude MSE, every claim beyond 2 s.e. ({claims})."
-    if all(v == "identical" for v in verdicts):
+    if all(v == "equal" for v in verdicts):
         return head + ("not reproduced: the filters' attitude errors are identical to "
                        f"round-off on this world ({claims}).")
     return head + f"not reproduced as a whole ({claims})."

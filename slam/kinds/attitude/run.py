@@ -53,22 +53,27 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators import Euclidean, Measurement, Product, Transition, make_filter, wrap_angle
-from estimators.loop import run_epochs
+from estimators import Measurement, make_filter, wrap_angle
 from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
 from nav.gyro import dead_reckoning, interval_transition
 from nav.observations import direction_measurement, quaternion_measurement
 from nav.quaternion import dcm_to_q
-from nav.spaces import UnitQuaternion
 from slam.failures import run_reference
 from slam.kinds.attitude.decision import decide_attitude
+from slam.kinds.attitude.filtering import (  # noqa: F401  (re-exported)
+    QUAT,
+    STATE,
+    batch_filter,
+    run_filter,
+    star_observation,
+)
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
 from slam.results import REFERENCE, EstimateSeries, EstimatorRun, RunOutcome
 from slam.scoring import anees_stats, nees_series, per_epoch_anees, scored_runs, timing
@@ -76,8 +81,6 @@ from slam.scoring import anees_stats, nees_series, per_epoch_anees, scored_runs,
 Array = NDArray[np.float64]
 
 
-QUAT = UnitQuaternion()
-STATE = Product([QUAT, Euclidean(3)])
 AXES = ("roll", "pitch", "yaw")
 ARCSEC = math.pi / 180.0 / 3600.0
 DEG_H = math.pi / 180.0 / 3600.0
@@ -123,13 +126,6 @@ def star_measurement(mode: str, sigma: float, refs: Array | None = None) -> Meas
     return direction_measurement(refs, sigma)
 
 
-def star_observation(log: AttitudeLog, j: int) -> Array:
-    """The star measurement of epoch ``j`` in the measurement model's ambient form."""
-    if log.star_q is not None:
-        return log.star_q[j]
-    return log.star_vectors[j].ravel()
-
-
 def initial_belief(world, log: AttitudeLog) -> tuple[Array, Array]:
     """``(x0, P0)``: truth's Z-X-Y Euler angles plus the world's error; zero bias."""
     fs = world.filters
@@ -140,34 +136,6 @@ def initial_belief(world, log: AttitudeLog) -> tuple[Array, Array]:
 
 
 # --------------------------------------------------------------------------- filtering
-
-def run_filter(log: AttitudeLog, name: str, x0: Array, P0: Array, transition: Transition,
-               measurement: Measurement, settings: Mapping[str, Any] | None = None
-               ) -> EstimateSeries:
-    """Run filter ``name`` (built with ``settings``, the world's stated tuning constants:
-    :meth:`worlds.common.TunedFilters.settings_of`) over the log: update at t = 0, then
-    predict + update per interval (the one filter loop, :func:`estimators.loop.run_epochs`;
-    a numerical failure ends the run as ``diverged`` and later epochs stay NaN)."""
-    M = log.n_star
-    flt = make_filter(name, **(settings or {}))
-    means = np.full((M, 7), np.nan)
-    covs = np.full((M, 6, 6), np.nan)
-    nis = np.full(M, np.nan)
-
-    def record(j: int, b) -> None:
-        means[j], covs[j] = b.mean, b.cov
-
-    def correct(j: int, b):
-        b, inn = flt.update(b, measurement, star_observation(log, j))
-        return b, [inn]
-
-    out = run_epochs(flt, flt.init(x0, STATE, cov=P0), M, correct_first=True, record=record,
-                     transition=lambda j, b: (transition, log.gyro_block(j - 1)),
-                     correct=correct)
-    nis[out.nis_epoch] = out.nis
-    return EstimateSeries(name, means, covs, M - 1, nis=nis, nis_dof=measurement.noise.dim,
-                          time_s=out.time_s, diverged=out.diverged, failure=out.failure)
-
 
 # --------------------------------------------------------------------------- smoothing
 
@@ -320,36 +288,59 @@ def score_series(est: EstimateSeries, log: AttitudeLog, divergence_rad: float
 
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],
              keep_tracks: bool = False, reference: bool = True) -> RunOutcome:
-    """Simulate run ``run`` from its own seed and score every filter and the smoother.
+    """Simulate run ``run`` from its own seed and score every filter and the smoother (the
+    per-run path).
 
     ``RunOutcome.scores`` holds :class:`AttitudeScores`; with ``keep_tracks`` the tracks
     are :class:`AttitudeTrack`, ``truth`` is (M, 7) ``[q, b]`` and ``times`` the star epochs.
     """
-    rng = np.random.default_rng(seed_seq)
-    log = simulate_attitude(sim_config(world), rng)
+    return run_batch(world, [run], [seed_seq], filters, keep_tracks, reference,
+                     batched=False)[0]
+
+
+def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequence],
+              filters: Sequence[str], keep_first: bool = False, reference: bool = True,
+              batched: bool = True) -> list[RunOutcome]:
+    """Simulate runs ``runs`` (each from its own seed) and score every filter and the
+    smoother on each; a filter with a batched form runs over all of them at once
+    (:func:`batch_filter`; ``batched=False`` or a filter without it: run by run).  Every
+    outcome is the one :func:`run_once` gives for that run."""
+    logs = [simulate_attitude(sim_config(world), np.random.default_rng(s)) for s in seed_seqs]
     fs = world.filters
-    x0, P0 = initial_belief(world, log)
-    trans = interval_transition(log.samples_per_star, log.dt, fs.arw_rad_sqrt_s,
-                                fs.bias_rw_rad_s_sqrt_s)
-    meas = star_measurement(world.star.mode, fs.star_sigma_rad, log.star_refs)
+    beliefs = [initial_belief(world, log) for log in logs]
+    n = logs[0].samples_per_star
+    trans = interval_transition(n, logs[0].dt, fs.arw_rad_sqrt_s, fs.bias_rw_rad_s_sqrt_s)
+    meas = [star_measurement(world.star.mode, fs.star_sigma_rad, log.star_refs)
+            for log in logs]
     div = world.scoring.divergence_rad
-    series = [run_filter(log, name, x0, P0, trans, meas, fs.settings_of(name))
-              for name in filters]
-    if reference:
-        ref, failure = run_reference(smooth_attitude, log, x0, P0, fs.arw_rad_sqrt_s,
-                                     fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
-        M = log.n_star  # a smoother failure: no estimate, diverged with its reason
-        series.append(ref or EstimateSeries(
-            REFERENCE, np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan), M - 1,
-            nis=np.full(M, np.nan), nis_dof=0, time_s=0.0, diverged=True, failure=failure))
-    scores = {s.name: score_series(s, log, div) for s in series}
-    tracks = {}
-    if keep_tracks:
-        tracks = {s.name: AttitudeTrack(s.name, s.means[:, :4], s.means[:, 4:], s.covs)
-                  for s in series}
-    truth = np.hstack([log.star_truth_q, log.star_truth_bias]) if keep_tracks else None
-    times = np.array(log.star_times) if keep_tracks else None
-    return RunOutcome(run, scores, tracks, truth, None, times)  # type: ignore[arg-type]
+    series: list[list[EstimateSeries]] = [[] for _ in logs]
+    for name in filters:
+        settings = fs.settings_of(name)
+        if batched and len(logs) > 1 and make_filter(name, **settings).batched:
+            got = batch_filter(logs, name, beliefs, trans, meas[0], settings)
+        else:
+            got = [run_filter(log, name, x0, P0, trans, m, settings)
+                   for log, (x0, P0), m in zip(logs, beliefs, meas)]
+        for out, g in zip(series, got):
+            out.append(g)
+    outcomes = []
+    for i, (run, log) in enumerate(zip(runs, logs)):
+        x0, P0 = beliefs[i]
+        if reference:
+            ref, failure = run_reference(smooth_attitude, log, x0, P0, fs.arw_rad_sqrt_s,
+                                         fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
+            M = log.n_star  # a smoother failure: no estimate, diverged with its reason
+            series[i].append(ref or EstimateSeries(
+                REFERENCE, np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan), M - 1,
+                nis=np.full(M, np.nan), nis_dof=0, time_s=0.0, diverged=True, failure=failure))
+        scores = {s.name: score_series(s, log, div) for s in series[i]}
+        keep = keep_first and run == 0
+        tracks = ({s.name: AttitudeTrack(s.name, s.means[:, :4], s.means[:, 4:], s.covs)
+                   for s in series[i]} if keep else {})
+        truth = np.hstack([log.star_truth_q, log.star_truth_bias]) if keep else None
+        times = np.array(log.star_times) if keep else None
+        outcomes.append(RunOutcome(run, scores, tracks, truth, None, times))  # type: ignore
+    return outcomes
 
 
 # --------------------------------------------------------------------------- summary

@@ -167,6 +167,6 @@ def test_the_papers_claims_are_judged_from_the_paired_ranking() -> None:
     assert claim_verdict(close, "srckf", "best").startswith("not decided")
     assert claim_verdict(close, "ukf", "best").startswith("contradicted")
     assert claim_verdict(close, "srckf", "worst").startswith("contradicted")  # ukf is worse
-    tie = _block(["srckf", "srchinf"], {"srchinf": "identical"}, z=0.1)
+    tie = _block(["srckf", "srchinf"], {"srchinf": "equal"}, z=0.1)
     assert claim_verdict(tie, "srckf", "worst").startswith("not reproduced")
     assert claim_verdict(tie, "srchinf", "worst").startswith("not decided")
