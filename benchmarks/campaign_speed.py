@@ -5,7 +5,9 @@ For each world the two executors run the same campaign (same runs, seed and filt
 ``workers=1``), alternating ``--reps`` times; the figures are CPU seconds of this process
 (``time.process_time``), so another job on the machine changes them less than wall time
 does, and the ratio comes from runs made back to back.  The two summaries are also compared
-(every key but timings, 1e-9 relative; the number of differing keys is reported).
+(every key but timings to 1e-9 relative, the paired differences of near-equal filters to 1e-9
+of their MSE: ``tests.golden.regenerate.batched_differences``; the number of differing keys is
+reported).
 
 Defaults (the issue's campaigns): ``bailey`` 50 runs (its 4 filters + smoother), ``webmap``
 100 runs (ekf, srckf, srckf-inv), ``drone`` 25 runs, ``star-sensor`` 50 runs.  Worlds or run
@@ -51,7 +53,7 @@ def _campaign(case: Case, runs: int, executor: str) -> tuple[float, dict]:
 
 def measure(case: Case, runs: int, reps: int) -> dict:
     """Both paths ``reps`` times, alternating; CPU seconds, ratios and the summary check."""
-    from tests.golden.regenerate import differences, strip_timings
+    from tests.golden.regenerate import batched_differences, strip_timings
 
     times: dict[str, list[float]] = {"per-run": [], "batched": []}
     summaries = {}
@@ -61,7 +63,7 @@ def measure(case: Case, runs: int, reps: int) -> dict:
             seconds, summary = _campaign(case, runs, ex)
             times[ex].append(seconds)
             summaries[ex] = strip_timings(summary)
-    diff = differences(summaries["per-run"], summaries["batched"])
+    diff = batched_differences(summaries["per-run"], summaries["batched"])
     ratios = [a / b for a, b in zip(times["per-run"], times["batched"])]
     return {"world": case.world, "runs": runs, "filters": case.filters,
             "cpu_s": times, "ratio_per_run_over_batched": ratios,

@@ -141,6 +141,47 @@ def differences(golden: Any, new: Any, where: str = "summary") -> list[str]:
     return [] if golden == new else [f"{where}: {golden!r} != {new!r}"]
 
 
+DIFFERENCES = ("delta_mse", "delta_se", "delta_percent", "z")
+
+
+def batched_differences(per_run: dict, batched: dict) -> list[str]:
+    """Where the batched path's summary differs from the per-run path's: every key to
+    1e-9 relative (:func:`differences`), but the ranking's paired differences (differences of two
+    filters' MSEs that may agree to 1e-4, so round-off of 1e-13 in each is 1e-9 of their
+    difference) to 1e-9 of the MSEs they are differences of."""
+    rank_a, rank_b = per_run.pop("ranking"), batched.pop("ranking")
+    head_a, head_b = per_run.pop("headline"), batched.pop("headline")
+    order_a, order_b = per_run.pop("paper_ordering", []), batched.pop("paper_ordering", [])
+    out = differences(per_run, batched)
+    for metric, block in rank_a.items():
+        other = rank_b[metric]
+        rows_a, rows_b = block.pop("rows", {}), other.pop("rows", {})
+        out += differences(block, other, f"ranking.{metric}")
+        for name, ra in rows_a.items():
+            rb = dict(rows_b[name])
+            scale = {"delta_mse": ra["mse"], "delta_se": ra["mse"], "delta_percent": 100.0,
+                     "z": ra["mse"] / ra["delta_se"] if ra["delta_se"] else 0.0}
+            for key in DIFFERENCES:
+                a, b = ra.pop(key), rb.pop(key)
+                if (a is None) != (b is None) or (a is not None
+                                                  and abs(a - b) > 1e-9 * scale[key]):
+                    out.append(f"ranking.{metric}.{name}.{key}: {a!r} != {b!r}")
+            out += differences(ra, rb, f"ranking.{metric}.rows.{name}")
+    for i, (oa, ob) in enumerate(zip(order_a, order_b)):
+        scale = {"mean": oa.get("rmse_worse", 0.0) ** 2, "se": oa.get("rmse_worse", 0.0) ** 2}
+        scale["z"] = scale["mean"] / oa["se"] if oa.get("se") else 0.0
+        for key in ("mean", "se", "z"):
+            a, b = oa.pop(key, None), ob.pop(key, None)
+            if (a is None) != (b is None) or (a is not None and abs(a - b) > 1e-9 * scale[key]):
+                out.append(f"paper_ordering[{i}].{key}: {a!r} != {b!r}")
+        oa.pop("verdict", None), ob.pop("verdict", None)  # of differences of round-off
+        oa.pop("a_better_runs", None), ob.pop("a_better_runs", None)
+        out += differences(oa, ob, f"paper_ordering[{i}]")
+    if head_a.split(" (")[0] != head_b.split(" (")[0]:  # the same best filter named first
+        out.append(f"headline: {head_a[:60]!r} != {head_b[:60]!r}")
+    return out
+
+
 def strip_timings(obj: Any) -> Any:
     """``obj`` without any dict key containing ``time`` (at any depth) and without the
     ``provenance`` block (when, where and how the campaign ran: not a result)."""
