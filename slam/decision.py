@@ -10,6 +10,7 @@ report renders the result the same way (:mod:`slam.render.decision`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -81,6 +82,13 @@ def _consistency_sentence(entries: Mapping[str, Mapping[str, Any]], names: Seque
     return text
 
 
+def _json_settings(values: Mapping[str, Any]) -> dict[str, Any]:
+    """A filter's settings as summary.json holds them: an infinite value (γ = ∞, the
+    Kalman twin) as the string ``"inf"`` rather than a bare null."""
+    return {k: (str(v) if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in values.items()}
+
+
 def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Sequence[str],
            consistency: Consistency | None = Consistency(), reference: str | None = REFERENCE,
            settings: Mapping[str, Mapping[str, Any]] | None = None,
@@ -100,7 +108,7 @@ def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Se
     for name in filters:
         if name in entries:
             if settings is not None:
-                entries[name]["settings"] = dict(settings.get(name, {}))
+                entries[name]["settings"] = _json_settings(settings.get(name, {}))
             if settings_text is not None:
                 entries[name]["settings_text"] = settings_text.get(name, "")
     out["filters"] = entries

@@ -149,6 +149,20 @@ def blind_facts(world: SpinningWorld) -> tuple[Array, dict[str, Any]]:
     return blind, facts
 
 
+def _gamma_entries(gamma: float | None, on_failure: str | None) -> dict[str, Any]:
+    """The headline H∞ bound and failure policy, each null with its reason when there is
+    none (no H∞ filter listed) or the bound is infinite (strict JSON has no infinity)."""
+    out: dict[str, Any] = {"gamma_rad": gamma if gamma is not None and math.isfinite(gamma)
+                           else None, "on_failure": on_failure}
+    if gamma is None:
+        out["gamma_rad_reason"] = "no H-infinity filter listed ([filters.hinf] not stated)"
+    elif not math.isfinite(gamma):
+        out["gamma_rad_reason"] = "gamma = inf: the H-infinity filters are their Kalman twins"
+    if on_failure is None:
+        out["on_failure_reason"] = out.get("gamma_rad_reason") or "no H-infinity filter"
+    return out
+
+
 def summarize(world: SpinningWorld, outcomes: list[SpinOutcome], filters: list[str],
               runs: int, seed: int) -> dict[str, Any]:
     """The ``summary.json`` dict of a ``spinning`` campaign."""
@@ -177,15 +191,17 @@ def summarize(world: SpinningWorld, outcomes: list[SpinOutcome], filters: list[s
     return decide_spinning(world, outcomes, filters, blind, {
         "world": world.name, "kind": world.kind, "runs": runs, "seed": seed,
         "sample_interval_s": world.sample_interval_s,
-        "gamma_rad": world.filters.gamma_rad, "on_failure": world.filters.on_failure,
+        **_gamma_entries(world.filters.gamma_rad, world.filters.on_failure),
         "truth_noise": {"magnetometer_factor": world.truth_noise.magnetometer_factor,
                         "gyro_factor": world.truth_noise.gyro_factor,
                         "distribution": world.truth_noise.distribution},
         "flight": flight_facts(world),
         "blind_area": blind_info,
         "roll_floor": roll_stats(np.stack(floors), blind) if floors else {},
-        "prior_draws_mean_sq": {"pitch": float(np.mean(z[:, 0] ** 2)) if len(z) else None,
-                                "yaw": float(np.mean(z[:, 1] ** 2)) if len(z) else None},
+        "prior_draws_mean_sq": ({"pitch": float(np.mean(z[:, 0] ** 2)),
+                                 "yaw": float(np.mean(z[:, 1] ** 2))} if len(z) else
+                                {"pitch": None, "yaw": None, "pitch_reason": "no run drew a prior",
+                                 "yaw_reason": "no run drew a prior"}),
         "filters": {n: entry(n) for n in filters},
         "filter_descriptions": {n: DESCRIPTIONS.get(n, n) for n in filters},
         "reference": reference,

@@ -6,6 +6,8 @@ errors, not tracebacks or numpy warnings on the terminal."""
 
 from __future__ import annotations
 
+import json
+import math
 import warnings
 
 import pytest
@@ -15,6 +17,7 @@ import slam.cli
 from benchmarks.fuzz.tomlio import dumps
 from slam.campaign import run_campaign
 from slam.kinds.spinning.report import REPORT
+from slam.render.tables import summary_json
 from tests.slam.kinds.spinning.helpers import spinning_doc, tiny_world
 from worlds import WorldError
 
@@ -95,3 +98,13 @@ def test_no_blind_area_gives_reasons_and_no_numpy_warning() -> None:
     e = s["filters"]["srckf"]
     assert e["roll_rmse_blind_deg"] is None and e["roll_rmse_outside_deg"] > 0.0
     assert e["roll_rmse_blind_deg_reason"].startswith("no epoch in the blind area")
+
+
+def test_an_infinite_gamma_is_a_null_with_its_reason() -> None:
+    """γ = ∞ (the H∞ filters are their Kalman twins) is null in strict JSON: with a reason
+    (found by the fuzz run: the headline gamma_rad was a bare null)."""
+    from slam.nulls import unexplained_nulls
+
+    s = run_campaign(tiny_world(runs=1, **{"filters.hinf.gamma": math.inf}), workers=1).summary
+    assert s["gamma_rad"] is None and "inf" in s["gamma_rad_reason"]
+    assert unexplained_nulls(json.loads(summary_json(s))) == []
