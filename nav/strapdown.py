@@ -256,9 +256,10 @@ def prefix_products(E: Array, q0: Array | None = None) -> Array:
 def attitudes(q: ArrayLike, gyro: ArrayLike, dt: float, earth_rate: ArrayLike | None = None
               ) -> Array:
     """The attitudes of :func:`mechanise` alone: ``q`` (4,) through ``gyro`` (n, 3),
-    returned at every sample, (n + 1, 4)."""
+    returned at every sample, (n + 1, 4); a batch ``q`` (..., 4) with ``gyro`` (..., n, 3)
+    gives (..., n + 1, 4)."""
     gyro = np.asarray(gyro, dtype=np.float64)
-    n = gyro.shape[0]
+    n = gyro.shape[-2]
     Q = prefix_products(_qexp(gyro * dt), np.asarray(q, dtype=np.float64))
     if earth_rate is not None and np.any(earth_rate):
         nav = qexp(-np.arange(n + 1)[:, None] * dt * np.asarray(earth_rate, dtype=np.float64))

@@ -95,6 +95,14 @@ def _structure(problem: SlamProblem, step: int, slot_ids: list[int]
     return matched, new, late, ids
 
 
+def _stack_inputs(inputs: list[Any]) -> Any:
+    """The members' inputs as one batch: arrays stacked, tuples of arrays stacked part by
+    part."""
+    if isinstance(inputs[0], tuple):
+        return tuple(np.stack([np.asarray(u[i]) for u in inputs]) for i in range(len(inputs[0])))
+    return np.stack([np.asarray(u) for u in inputs])
+
+
 def _initial(filt: Any, problems: Sequence[SlamProblem]) -> Belief:
     beliefs = []
     for p in problems:
@@ -133,6 +141,9 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
 
     def transition(e: int, b: Belief, live: Array):
         k0, k1 = int(steps[live[0]][e - 1]), int(steps[live[0]][e])
+        if p0.motion_model is not None:  # built along the batch of beliefs
+            u = _stack_inputs([problems[r].motion_input(k0, k1) for r in live])
+            return p0.motion_model(k0, k1, b, u), u
         model, _ = p0.motion(k0, k1, None)  # type: ignore[arg-type]
         u = np.stack([np.asarray(problems[r].motion(k0, k1, None)[1])  # type: ignore[arg-type]
                       for r in live])

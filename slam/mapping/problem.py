@@ -119,8 +119,13 @@ class SlamProblem:
         world chart of ``layout`` and every correction is moved on the group with its
         covariance transported (:mod:`estimators.group_transport`).  ``None``: no transport.
     batchable : the models broadcast over a leading batch axis (points (B, m, n), inputs
-        (B, ...)) and ``motion``'s model does not depend on the belief, so runs of the same
-        layout may share a batch (:mod:`slam.mapping.batch`).
+        (B, ...)), so runs of the same layout may share a batch (:mod:`slam.mapping.batch`):
+        with ``motion``'s model independent of the belief (called with ``None``), or with
+        the two parts below.
+    motion_input, motion_model : ``motion`` in two parts for a batch whose model is built
+        along the belief (the drone's): ``motion_input(k0, k1)`` the run's input, and
+        ``motion_model(k0, k1, belief, u)`` the transition of a batch of beliefs with the
+        stacked inputs (``None``: ``motion`` serves).
     """
 
     x0: Array
@@ -140,6 +145,8 @@ class SlamProblem:
     true_landmarks: Array | None = None
     group: Callable[[int], Any] | None = None
     batchable: bool = False
+    motion_input: Callable[[int, int], Any] | None = None
+    motion_model: Callable[[int, int, Belief, Any], Transition] | None = None
 
     def landmark_rows(self, slot: int) -> Array:
         """Tangent rows of landmark ``slot``."""

@@ -146,11 +146,11 @@ DIFFERENCES = ("delta_mse", "delta_se", "delta_percent", "z")
 
 def batched_differences(per_run: dict, batched: dict) -> list[str]:
     """Where the batched path's summary differs from the per-run path's: every key to
-    1e-9 relative (:func:`differences`), but the ranking's paired differences (differences of two
-    filters' MSEs that may agree to 1e-4, so round-off of 1e-13 in each is 1e-9 of their
-    difference) to 1e-9 of the MSEs they are differences of."""
-    rank_a, rank_b = per_run.pop("ranking"), batched.pop("ranking")
-    head_a, head_b = per_run.pop("headline"), batched.pop("headline")
+    1e-9 relative (:func:`differences`), but the ranking's paired differences (differences
+    of two filters' MSEs that may agree to 1e-4, so round-off of 1e-13 in each is 1e-9 of
+    their difference) to 1e-9 of the MSEs they are differences of."""
+    rank_a, rank_b = per_run.pop("ranking", {}), batched.pop("ranking", {})
+    head_a, head_b = per_run.pop("headline", ""), batched.pop("headline", "")
     order_a, order_b = per_run.pop("paper_ordering", []), batched.pop("paper_ordering", [])
     out = differences(per_run, batched)
     for metric, block in rank_a.items():

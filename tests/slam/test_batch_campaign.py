@@ -93,3 +93,15 @@ def test_star_sensor_batched_summary_equals_the_per_run_one():
     per_run, batched = _summaries(world, 3)
     diff = _equal(per_run, batched)
     assert not diff, "\n".join(diff[:10])
+
+
+def test_drone_batched_summary_equals_the_per_run_one():
+    """The drone: the prediction is built along each run's own mean (one model per run of
+    the batch), the landmarks come into view at the same epochs (the same truth)."""
+    from slam.registry import world_from_dict
+    from tests.small_worlds import small_drone_doc
+
+    world = world_from_dict(small_drone_doc(runs=3), name="small-drone")
+    per_run, batched = _summaries(world, 3)
+    diff = _equal(per_run, batched)
+    assert not diff, "\n".join(diff[:10])

@@ -8,4 +8,5 @@ from slam.kinds.drone.world import MODES, parse, work
 
 KIND = Kind(NAME, parse, Deferred(f"{__name__}.run:run_once"),
             Deferred(f"{__name__}.run:summarize_drone"), Deferred(f"{__name__}.report:REPORT"),
-            MODES, {"local": DRONE_LOCAL_FILTERS}, filters=DRONE_FILTERS, work=work)
+            MODES, {"local": DRONE_LOCAL_FILTERS}, filters=DRONE_FILTERS, work=work,
+            run_batch=Deferred(f"{__name__}.run:run_batch"))

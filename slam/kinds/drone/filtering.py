@@ -36,6 +36,7 @@ from slam.kinds.drone.variants import (
     split_variant,
 )
 from slam.mapping.association import gated_choice
+from slam.mapping.batch import run_problems
 from slam.mapping.problem import SlamProblem, run_problem, variant_problem, world_belief
 from slam.results import SlamRun
 
@@ -107,12 +108,18 @@ def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
     obs_cov = log.obs_cov * (sensor_noise_scale * noise_scale)
     imu = np.asarray(log.steps)
 
-    def motion(e0: int, e1: int, b: Belief):
+    def motion_input(e0: int, e1: int) -> tuple[Array, Array]:
         k0, k1 = int(imu[e0]), int(imu[e1])
-        u = (log.gyro[k0:k1], log.accel[k0:k1])
-        n_lm = (b.mean.size - VEH_AMBIENT) // 3
+        return log.gyro[k0:k1], log.accel[k0:k1]
+
+    def motion_model(e0: int, e1: int, b: Belief, u: tuple[Array, Array]):
+        n_lm = (b.mean.shape[-1] - VEH_AMBIENT) // 3
         build = invariant_imu_transition if inv else imu_transition
-        return build(b.mean, n_lm, u[0], u[1], log.nav, noise), u
+        return build(b.mean, n_lm, u[0], u[1], log.nav, noise)
+
+    def motion(e0: int, e1: int, b: Belief):
+        u = motion_input(e0, e1)
+        return motion_model(e0, e1, b, u), u
 
     def observe(slots: Array, index: Array):
         m = observation_model(slots, obs_cov)
@@ -131,7 +138,8 @@ def drone_problem(log: DroneLog, *, imu_noise_scale: float = 1.0,
         obs=log.obs, obs_id=log.obs_id,
         observe=observe, augment=augment,
         layout=GROUP_LAYOUT if inv else DRONE_LAYOUT, truth=log.truth, position_dims=3,
-        nearest=nearest, record_rows=POSE_ROWS, true_landmarks=log.landmarks)
+        nearest=nearest, record_rows=POSE_ROWS, true_landmarks=log.landmarks,
+        batchable=not inv, motion_input=motion_input, motion_model=motion_model)
 
 
 def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "known",
@@ -149,8 +157,31 @@ def run_drone_filter(log: DroneLog, filter_name: str, *, association: str = "kno
                                 sensor_noise_scale=sensor_noise_scale, noise_scale=noise_scale,
                                 variant=v),
         filter_name, variant, mode, DRONE_LOCAL_FILTERS, group_space)
-    r = run_problem(problem, filter_name, mode=mode, association=association, gates=gates,
-                    diverge_m=diverge_m, filter_params=filter_params)
+    return _estimate(filter_name, run_problem(problem, filter_name, mode=mode,
+                                              association=association, gates=gates,
+                                              diverge_m=diverge_m, filter_params=filter_params))
+
+
+def run_drone_batch(logs: list[DroneLog], filter_name: str, *, association: str = "known",
+                    gates: tuple[float, float] = (7.8, 30.0), diverge_m: float = 25.0,
+                    imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
+                    filter_params: dict | None = None, mode: str = "joint",
+                    batched: bool = True) -> list[DroneEstimate]:
+    """:func:`run_drone_filter` of every log, the runs that share a layout as one batch
+    (:func:`slam.mapping.batch.run_problems`: the standard-error filters in joint mode with
+    known association; each result is the per-run one)."""
+    variant = split_variant(filter_name)[1]
+    problems = [variant_problem(
+        lambda v, log=log: drone_problem(log, imu_noise_scale=imu_noise_scale,
+                                         sensor_noise_scale=sensor_noise_scale, variant=v),
+        filter_name, variant, mode, DRONE_LOCAL_FILTERS, group_space) for log in logs]
+    results = run_problems(problems, filter_name, mode=mode, association=association,
+                           gates=gates, diverge_m=diverge_m, filter_params=filter_params,
+                           batched=batched)
+    return [_estimate(filter_name, r) for r in results]
+
+
+def _estimate(filter_name: str, r) -> DroneEstimate:
     x = r.poses
     return DroneEstimate(filter_name, x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:16], r.pose_cov,
                          r.landmark_ids, r.landmarks, r.landmark_cov, r.vehicle_var,

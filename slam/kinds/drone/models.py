@@ -129,19 +129,32 @@ class NavFrame:
 
 
 def psd_sqrt(C: Array) -> Array:
-    """A lower-triangular factor of a symmetric positive semi-definite matrix."""
-    C = 0.5 * (C + C.T)
+    """A lower-triangular factor of a symmetric positive semi-definite matrix (a batch of
+    them: leading axes)."""
+    C = 0.5 * (C + np.swapaxes(C, -1, -2))
     try:
         return chol(C)
     except NotPositiveDefiniteError:
         w, U = np.linalg.eigh(C)
-        return tria(U * np.sqrt(np.clip(w, 0.0, None)))
+        return tria(U * np.sqrt(np.clip(w, 0.0, None))[..., None, :])
 
 
 # --------------------------------------------------------------------------- prediction
 
 def propagate_points(X: Array, gyro: Array, accel: Array, nav: NavFrame) -> Array:
-    """Mechanise states ``X`` (m, 16 + 3N) through one epoch's IMU samples (n, 3) each."""
+    """Mechanise states ``X`` (m, 16 + 3N) through one epoch's IMU samples (n, 3) each (a
+    batch of runs: ``X`` (..., m, ·) with ``gyro``, ``accel`` (..., n, 3); the points of
+    every run are mechanised together)."""
+    if X.ndim > 2:
+        lead, m = X.shape[:-2], X.shape[-2]
+        flat = X.reshape(-1, X.shape[-1])
+        w = (gyro[..., None, :, :] - X[..., BG][..., None, :]).reshape(flat.shape[0], -1, 3)
+        f = (accel[..., None, :, :] - X[..., BA][..., None, :]).reshape(flat.shape[0], -1, 3)
+        p, v, q = mechanise(flat[:, P], flat[:, V], flat[:, Q], w, f, nav.dt, nav.gravity,
+                            nav.earth_rate)
+        Y = flat.copy()
+        Y[:, P], Y[:, V], Y[:, Q] = p, v, q
+        return Y.reshape(lead + (m, X.shape[-1]))
     bg, ba = X[:, BG], X[:, BA]
     p, v, q = mechanise(X[:, P], X[:, V], X[:, Q], gyro[None] - bg[:, None],
                         accel[None] - ba[:, None], nav.dt, nav.gravity, nav.earth_rate)
@@ -179,11 +192,12 @@ def error_transitions(C: Array, w: Array, f: Array, nav: NavFrame, noise: ImuNoi
 
 def error_transition(x: Array, gyro: Array, accel: Array, nav: NavFrame, noise: ImuNoise
                      ) -> tuple[Array, Array]:
-    """``(Φ, Q)`` of the 15-d vehicle error state over one epoch, along the mean ``x``."""
-    w = gyro - x[BG]
-    f = accel - x[BA]
-    qs = attitudes(x[Q], w, nav.dt, nav.earth_rate)
-    return error_transitions(dcm_unit(qs[:-1]), w, f, nav, noise)
+    """``(Φ, Q)`` of the 15-d vehicle error state over one epoch, along the mean ``x`` (a
+    batch: ``x`` (..., n) with ``gyro``, ``accel`` (..., n_s, 3))."""
+    w = gyro - x[..., BG][..., None, :]
+    f = accel - x[..., BA][..., None, :]
+    qs = attitudes(x[..., Q], w, nav.dt, nav.earth_rate)
+    return error_transitions(dcm_unit(qs[..., :-1, :]), w, f, nav, noise)
 
 
 def _compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
@@ -210,12 +224,13 @@ def imu_transition(x_mean: Array, n_landmarks: int, gyro: Array, accel: Array, n
     ``blkdiag(Φ, I)``."""
     Phi, Qv = error_transition(x_mean, gyro, accel, nav, noise)
     d = VEH_DIM + 3 * n_landmarks
-    cov = np.zeros((d, d))
-    cov[:VEH_DIM, :VEH_DIM] = Qv
-    sqrt = np.zeros((d, d))
-    sqrt[:VEH_DIM, :VEH_DIM] = psd_sqrt(Qv)
-    F = np.eye(d)
-    F[:VEH_DIM, :VEH_DIM] = Phi
+    lead = np.shape(x_mean)[:-1]  # a batch of means: one model per run
+    cov = np.zeros(lead + (d, d))
+    cov[..., :VEH_DIM, :VEH_DIM] = Qv
+    sqrt = np.zeros(lead + (d, d))
+    sqrt[..., :VEH_DIM, :VEH_DIM] = psd_sqrt(Qv)
+    F = np.broadcast_to(np.eye(d), lead + (d, d)).copy()
+    F[..., :VEH_DIM, :VEH_DIM] = Phi
 
     def f(X: Array, u: tuple[Array, Array]) -> Array:
         return propagate_points(X, u[0], u[1], nav)
@@ -233,8 +248,8 @@ def observation_space(k: int) -> Wrapped:
 def body_vectors(X: Array, slots: Array) -> Array:
     """Landmarks at ``slots`` in the body frame of every point: (m, k, 3)."""
     cols = VEH_AMBIENT + 3 * np.asarray(slots, dtype=int)[:, None] + np.arange(3)
-    m = X[:, cols]  # (m, k, 3)
-    return qrotate(qconj(X[:, None, Q]), m - X[:, None, P])
+    m = X[..., cols]  # (..., m, k, 3)
+    return qrotate(qconj(X[..., None, Q]), m - X[..., None, P])
 
 
 def rae_of(d: Array) -> Array:
@@ -245,27 +260,32 @@ def rae_of(d: Array) -> Array:
 
 
 def rae(X: Array, slots: Array) -> Array:
-    """Stacked ``[r, az, el]`` of the landmarks at ``slots``: (m, 3k)."""
-    return rae_of(body_vectors(X, slots)).reshape(X.shape[0], -1)
+    """Stacked ``[r, az, el]`` of the landmarks at ``slots``: (m, 3k) (leading axes: a
+    batch)."""
+    return rae_of(body_vectors(X, slots)).reshape(X.shape[:-1] + (-1,))
 
 
 def rae_jacobian_d(d: Array) -> Array:
-    """∂[r, az, el]/∂d at body vectors ``d`` (k, 3): (k, 3, 3)."""
-    dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
+    """∂[r, az, el]/∂d at body vectors ``d`` (..., k, 3): (..., k, 3, 3)."""
+    dx, dy, dz = d[..., 0], d[..., 1], d[..., 2]
     rho2 = dx * dx + dy * dy
     rho = np.sqrt(rho2)
     r2 = rho2 + dz * dz
     r = np.sqrt(r2)
-    J = np.zeros((len(d), 3, 3))
-    J[:, 0] = d / r[:, None]
-    J[:, 1, 0], J[:, 1, 1] = -dy / rho2, dx / rho2
-    J[:, 2, 0], J[:, 2, 1], J[:, 2, 2] = -dx * dz / (r2 * rho), -dy * dz / (r2 * rho), rho / r2
+    J = np.zeros(d.shape[:-1] + (3, 3))
+    J[..., 0, :] = d / r[..., None]
+    J[..., 1, 0], J[..., 1, 1] = -dy / rho2, dx / rho2
+    J[..., 2, 0], J[..., 2, 1], J[..., 2, 2] = (-dx * dz / (r2 * rho), -dy * dz / (r2 * rho),
+                                                rho / r2)
     return J
 
 
 def rae_jacobian(x: Array, slots: Array) -> Array:
-    """Analytic Jacobian (3k, d) of :func:`rae` at one state ``x`` in tangent coordinates."""
+    """Analytic Jacobian (3k, d) of :func:`rae` at one state ``x`` in tangent coordinates
+    (a batch ``x`` (..., n) gives (..., 3k, d))."""
     slots = np.asarray(slots, dtype=int)
+    if x.ndim > 1:
+        return _rae_jacobian_batch(x, slots)
     n_lm = (x.shape[0] - VEH_AMBIENT) // 3
     d_all = body_vectors(x[None], slots)[0]  # (k, 3)
     Jd = rae_jacobian_d(d_all)
@@ -277,6 +297,21 @@ def rae_jacobian(x: Array, slots: Array) -> Array:
         H[rows, TTH] = Jd[i] @ skew(d_all[i])
         H[rows, VEH_DIM + 3 * s:VEH_DIM + 3 * s + 3] = Jd[i] @ Ct
     return H
+
+
+def _rae_jacobian_batch(x: Array, slots: Array) -> Array:
+    lead, k = x.shape[:-1], len(slots)
+    n_lm = (x.shape[-1] - VEH_AMBIENT) // 3
+    d_all = body_vectors(x[..., None, :], slots)[..., 0, :, :]  # (..., k, 3)
+    Jd = rae_jacobian_d(d_all)  # (..., k, 3, 3)
+    Ct = np.swapaxes(qto_dcm(x[..., Q]), -1, -2)[..., None, :, :]  # (..., 1, 3, 3)
+    H = np.zeros(lead + (k, 3, VEH_DIM + 3 * n_lm))
+    JC = Jd @ Ct
+    H[..., TP] = -JC
+    H[..., TTH] = Jd @ skew(d_all)
+    for i, s in enumerate(slots):
+        H[..., i, :, VEH_DIM + 3 * s:VEH_DIM + 3 * s + 3] = JC[..., i, :, :]
+    return H.reshape(lead + (3 * k, VEH_DIM + 3 * n_lm))
 
 
 def observation_model(slots: Array, obs_cov: Array) -> Measurement:
@@ -298,11 +333,12 @@ def direction(Z: Array) -> Array:
 
 
 def landmarks_from_rae(X: Array, Z: Array) -> Array:
-    """Inverse observation: (m, 3k) landmark positions from states ``X`` and ``Z`` (m, 3k)."""
-    m = X.shape[0]
-    Zr = Z.reshape(m, -1, 3)
-    d = Zr[..., :1] * direction(Zr)  # (m, k, 3)
-    return (X[:, None, P] + qrotate(X[:, None, Q], d)).reshape(m, -1)
+    """Inverse observation: (m, 3k) landmark positions from states ``X`` and ``Z`` (m, 3k)
+    (leading axes: a batch)."""
+    lead = np.broadcast_shapes(X.shape[:-1], Z.shape[:-1])
+    Zr = Z.reshape(Z.shape[:-1] + (-1, 3))
+    d = Zr[..., :1] * direction(Zr)  # (..., m, k, 3)
+    return (X[..., None, P] + qrotate(X[..., None, Q], d)).reshape(lead + (-1,))
 
 
 def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transition:
@@ -315,9 +351,11 @@ def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transi
     n = VEH_DIM + 3 * n_landmarks
 
     def f(X: Array, u: Array, W: Array) -> Array:
-        return np.hstack([X, landmarks_from_rae(X, u[None] + W)])
+        return np.concatenate([X, landmarks_from_rae(X, u[..., None, :] + W)], axis=-1)
 
     def jacobian(x: Array, u: Array) -> tuple[Array, Array]:
+        if x.ndim > 1:
+            return _augmentation_jacobian_batch(x, u, n, k)
         C = qto_dcm(x[Q])
         F = np.zeros((n + 3 * k, n))
         F[:n] = np.eye(n)
@@ -338,3 +376,26 @@ def augmentation_model(n_landmarks: int, z_new: Array, obs_cov: Array) -> Transi
     cov = np.kron(np.eye(k), obs_cov)
     return Transition(f, Noise(cov, np.kron(np.eye(k), psd_sqrt(obs_cov))), additive=False,
                       space=state_space(n_landmarks + k), jacobian=jacobian)
+
+
+def _augmentation_jacobian_batch(x: Array, u: Array, n: int, k: int) -> tuple[Array, Array]:
+    """:func:`augmentation_model`'s Jacobians for a batch of states (..., n) and
+    observations (..., 3k)."""
+    lead = x.shape[:-1]
+    C = qto_dcm(x[..., Q])  # (..., 3, 3)
+    F = np.zeros(lead + (n + 3 * k, n))
+    F[..., :n, :] = np.eye(n)
+    G = np.zeros(lead + (n + 3 * k, 3 * k))
+    for i in range(k):
+        r, a, e = u[..., 3 * i], u[..., 3 * i + 1], u[..., 3 * i + 2]
+        dirn = direction(np.stack([r, a, e], axis=-1))  # (..., 3)
+        d = r[..., None] * dirn
+        ca, sa, ce, se = np.cos(a), np.sin(a), np.cos(e), np.sin(e)
+        zero = np.zeros_like(a)
+        dd = np.stack([dirn, r[..., None] * np.stack([-ce * sa, ce * ca, zero], axis=-1),
+                       r[..., None] * np.stack([-se * ca, -se * sa, ce], axis=-1)], axis=-1)
+        rows = slice(n + 3 * i, n + 3 * i + 3)
+        F[..., rows, TP] = np.eye(3)
+        F[..., rows, TTH] = -C @ skew(d)
+        G[..., rows, 3 * i:3 * i + 3] = C @ dd
+    return F, G

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from slam.failures import run_reference
-from slam.kinds.drone.filtering import IMU_ONLY, imu_only, run_drone_filter
+from slam.kinds.drone.filtering import IMU_ONLY, imu_only, run_drone_batch
 from slam.kinds.drone.reference import failed_reference, smooth_drone
 from slam.kinds.drone.scoring import score, summarize_scores, track_of
 from slam.kinds.drone.simulate import simulate_drone
@@ -70,32 +70,49 @@ FILTER_DESCRIPTIONS.update({
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],
              keep_tracks: bool = False, reference: bool = True) -> RunOutcome:
     """Simulate run ``run`` from its own seed; score every filter, the IMU-only baseline
-    and (``reference``) the GTSAM smoother on the same log.
+    and (``reference``) the GTSAM smoother on the same log (the per-run path).
 
     ``RunOutcome.scores`` holds :class:`DroneScores`; with ``keep_tracks`` the tracks are
     :class:`DroneTrack`, ``truth`` is (E, 16) ``[p, v, q, b_g, b_a]``, ``true_landmarks``
     (N, 3) and ``times`` the epochs (s).
     """
+    return run_batch(world, [run], [seed_seq], filters, keep_tracks, reference,
+                     batched=False)[0]
+
+
+def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequence],
+              filters: Sequence[str], keep_first: bool = False, reference: bool = True,
+              batched: bool = True) -> list[RunOutcome]:
+    """Simulate runs ``runs`` (each from its own seed) and score every estimator on each:
+    the filters over the runs at once where they share a layout
+    (:func:`~slam.kinds.drone.filtering.run_drone_batch`; ``batched=False``: one by one), the
+    IMU-only baseline and the smoother per run.  Every outcome is :func:`run_once`'s."""
     fs = world.filters
-    rng = np.random.default_rng(seed_seq)
-    log = simulate_drone(world, rng)
-    ests = [run_drone_filter(log, name, association=fs.association,
-                             gates=(fs.gate_accept, fs.gate_new), diverge_m=fs.divergence_m,
-                             imu_noise_scale=fs.imu_noise_scale,
-                             sensor_noise_scale=fs.sensor_noise_scale, mode=fs.mode,
-                             filter_params=fs.settings_of(name))
-            for name in filters]
-    ests.append(imu_only(log, fs.imu_noise_scale))
-    if reference:
-        ref, failure = run_reference(smooth_drone, log, imu_noise_scale=fs.imu_noise_scale,
-                                     sensor_noise_scale=fs.sensor_noise_scale)
-        ests.append(ref if ref is not None else failed_reference(log, failure or ""))
-    scores = {e.name: score(e, log) for e in ests}
-    tracks = {e.name: track_of(e) for e in ests} if keep_tracks else {}
-    return RunOutcome(run, scores, tracks,  # type: ignore[arg-type]
-                      log.truth if keep_tracks else None,
-                      log.landmarks if keep_tracks else None,
-                      log.times if keep_tracks else None)
+    logs = [simulate_drone(world, np.random.default_rng(s)) for s in seed_seqs]
+    ests: list[list] = [[] for _ in logs]
+    for name in filters:
+        got = run_drone_batch(logs, name, association=fs.association,
+                              gates=(fs.gate_accept, fs.gate_new), diverge_m=fs.divergence_m,
+                              imu_noise_scale=fs.imu_noise_scale,
+                              sensor_noise_scale=fs.sensor_noise_scale, mode=fs.mode,
+                              filter_params=fs.settings_of(name), batched=batched)
+        for out, e in zip(ests, got):
+            out.append(e)
+    outcomes = []
+    for i, (run, log) in enumerate(zip(runs, logs)):
+        ests[i].append(imu_only(log, fs.imu_noise_scale))
+        if reference:
+            ref, failure = run_reference(smooth_drone, log, imu_noise_scale=fs.imu_noise_scale,
+                                         sensor_noise_scale=fs.sensor_noise_scale)
+            ests[i].append(ref if ref is not None else failed_reference(log, failure or ""))
+        keep = keep_first and run == 0
+        scores = {e.name: score(e, log) for e in ests[i]}
+        tracks = {e.name: track_of(e) for e in ests[i]} if keep else {}
+        outcomes.append(RunOutcome(run, scores, tracks,  # type: ignore[arg-type]
+                                   log.truth if keep else None,
+                                   log.landmarks if keep else None,
+                                   log.times if keep else None))
+    return outcomes
 
 
 def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs: int,
