@@ -548,8 +548,8 @@ def value_at(values: Mapping[str, Any], key: str) -> Any:
 
 
 def is_whole(x: float, tol: float = 1e-9) -> bool:
-    """``x`` is a whole number to a relative ``tol``."""
-    return abs(x - round(x)) <= tol * max(1.0, abs(x))
+    """``x`` is a finite whole number to a relative ``tol``."""
+    return math.isfinite(x) and abs(x - round(x)) <= tol * max(1.0, abs(x))
 
 
 def whole_periods(duration: float, rate: float) -> bool:

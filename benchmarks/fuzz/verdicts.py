@@ -86,8 +86,8 @@ Explainer = Callable[[list[Any], list[Key]], bool]
 """``(containers from the root down to the null's parent, the keys on the way) -> the
 null is explained``."""
 
-COUNT = re.compile(r"^(n|count|epochs|samples|logs|updates|runs_scored)$|_(count|epochs|samples)$"
-                   r"|^n_")
+COUNT = re.compile(r"^(n|count|epochs|samples|logs|updates|runs_scored|converged_runs)$"
+                   r"|_(count|epochs|samples)$|^n_")
 """Names of keys that count what a statistic is computed over (not ``diverged_runs``)."""
 
 

@@ -235,6 +235,8 @@ def test_unexplained_null_class(tmp_path: Path) -> None:
     explained = [
         {"turns": {"epochs": 0, "roll": {"rms": None}}},  # a zero count around it
         {"turns": {"rms": None, "rms_reason": "no epoch in a turn"}},
+        # slam.nulls's count keys: a ship filter that never converged in any run
+        {"converge_yaw_s": {"median": None, "never": 1, "converged_runs": 0}},
         {"gammas_rad": [0.2, None], "gammas_rad_reason": "inf: the Kalman filter"},
         {"limits": {"azimuth_limit_deg": None, "azimuth_observable": False}},
         {"provenance": {"scheduler": None}, "paper": {"x": None}},  # not scores

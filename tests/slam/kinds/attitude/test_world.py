@@ -48,6 +48,7 @@ def test_bundled_attitude_worlds_load() -> None:
     ("overrides", "key"),
     [
         ({"star_sensor.rate_hz": 3.0}, "star_sensor.rate_hz"),  # 50 Hz / 3 Hz not whole
+        ({"star_sensor.rate_hz": 1e-308}, "star_sensor.rate_hz"),  # 50 Hz / rate = inf
         ({"star_sensor.mode": "euler"}, "star_sensor.mode"),
         ({"scoring.steady_state_from_s": 600.0}, "scoring.steady_state_from_s"),
         ({"filters.initial_error_deg": [0.5, 0.5]}, "filters.initial_error_deg"),
