@@ -9,7 +9,7 @@ import textwrap
 from typing import Any
 
 from slam.render.document import Section
-from slam.render.tables import MISSING, TERMINAL_WIDTH, num, plain_table
+from slam.render.tables import MISSING, TERMINAL_WIDTH, Column, num, plain_table
 
 HEADER = ("rank", "filter", "RMSE", "ΔMSE vs best (± s.e.)", "ΔRMSE", "z", "verdict")
 
@@ -22,6 +22,16 @@ def _cells(name: str, row: dict[str, Any], unit: str) -> list[str]:
         pct = f"{row['delta_percent']:+.1f} %"
         z = num(row.get("z"), ".1f")
     return [str(row["rank"]), name, f"{row['rmse']:#.4g} {unit}", delta, pct, z, row["verdict"]]
+
+
+def rank_column(summary: dict[str, Any], metric: str, header: str = "rank") -> Column:
+    """A results-table column with each filter's rank on the summary's ranking ``metric``
+    (the missing mark for an estimator that is not ranked: a baseline, the smoother)."""
+    rows = ((summary.get("ranking") or {}).get(metric) or {}).get("rows") or {}
+
+    def cell(name: str, entry: dict[str, Any]) -> str:
+        return str(rows[name]["rank"]) if name in rows else MISSING
+    return Column(header, cell)
 
 
 def ranking_rows(block: dict[str, Any]) -> list[list[str]]:
