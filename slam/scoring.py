@@ -162,11 +162,11 @@ def nis_and_timing(good: list) -> dict:
     return out
 
 
-def landmark_anees_entries(series: Sequence[Any], length: int, key: str = "landmark_anees"
-                           ) -> dict[str, Any]:
+def landmark_anees_entries(series: Sequence[Any], length: int | None = None,
+                           key: str = "landmark_anees") -> dict[str, Any]:
     r"""The map's consistency in the summary keys of :func:`anees_entries`, from the runs'
     :class:`~slam.mapping.map_series.MapSeries` (their ``nees`` sums, ``nees_count`` and
-    ``dof``), padded to ``length`` epochs.
+    ``dof``), padded to ``length`` epochs (default: the longest run's).
 
     At epoch :math:`k` the runs hold :math:`n_k` scored landmark blocks whose NEES sum to
     :math:`S_k`; for a consistent filter :math:`S_k \sim \chi^2_{d n_k}`, so

@@ -53,6 +53,7 @@ from slam.render.tables import (
     terminal_text,
     value,
 )
+from slam.render.tables import smoother_cost as tables_smoother_cost
 from slam.results import REFERENCE, CampaignResult
 
 _AXES = ("x", "y", "z")
@@ -110,12 +111,7 @@ def compact_table(summary: dict[str, Any]) -> Table:
 
 def smoother_cost(summary: dict[str, Any]) -> str:
     """The GTSAM smoother's cost in its own unit: seconds per run (solve, marginals)."""
-    r = (summary.get("reference") or {}).get(REFERENCE)
-    if not r or r.get("time_s") is None:
-        return ""
-    return (f"The GTSAM smoother is a batch solve: {num(r.get('time_s'), '.2f')} s per run "
-            f"(iSAM2 + Levenberg-Marquardt) and {num(r.get('marginals_time_s'), '.2f')} s "
-            "for its marginals; the filters' cost is per epoch.")
+    return tables_smoother_cost(summary, "iSAM2 + Levenberg-Marquardt")
 
 
 def drone_text_table(summary: dict[str, Any]) -> str:
