@@ -250,6 +250,18 @@ def failure_notes(summary: dict[str, Any]) -> list[str]:
     return out
 
 
+def landmark_anees_rule(dof: int) -> str:
+    """How the landmark ANEES (:func:`slam.scoring.landmark_anees_entries`) is formed and
+    what its band means, in words (for the reports' notes)."""
+    return (f"Landmark ANEES: at each epoch the NEES of every mapped landmark ({dof} dof) "
+            f"summed over the landmarks and runs, divided by {dof} × their number, averaged "
+            "over the epochs; its 95 % band is that of the median number of landmark blocks "
+            "per epoch, and 'in band' counts the epochs inside their own band (what "
+            "landmarks.png draws). The band treats the landmarks' NEES as independent; they "
+            "share the vehicle's error, so the true spread is wider and a verdict near the "
+            "band's edge is weak evidence (the ANEES itself, a mean, is not affected).")
+
+
 def smoother_cost(summary: dict[str, Any], how: str, reference: str = "gtsam") -> str:
     """The smoother's cost in its own unit, seconds per run (``time_s``, else
     ``time_per_run_s`` of its ``reference`` entry; with ``marginals_time_s`` if there is

@@ -49,6 +49,7 @@ from slam.render.tables import (
     consistency_columns,
     consistency_rule,
     error_range,
+    landmark_anees_rule,
     num,
     terminal_text,
     value,
@@ -160,11 +161,7 @@ HOW_TO_READ = (
 )
 
 
-LANDMARK_NOTE = (
-    "Landmark ANEES: at each epoch the NEES of every mapped landmark (3 dof) summed over "
-    "the landmarks and runs, divided by 3 × their number, averaged over the epochs; its "
-    "95 % band is that of the median number of landmark blocks per epoch, and 'in band' "
-    "counts the epochs inside their own band (what landmarks.png draws).")
+LANDMARK_NOTE = landmark_anees_rule(3)
 
 
 def _flight_note(summary: dict[str, Any]) -> str:

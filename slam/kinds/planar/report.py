@@ -38,6 +38,7 @@ from slam.render.tables import (
     band_note,
     consistency_columns,
     consistency_rule,
+    landmark_anees_rule,
     num,
     slam_table,
     smoother_cost,
@@ -103,11 +104,7 @@ HOW_TO_READ = (
     "beat. The `gtsam` row is the batch-optimal smoother (GTSAM) on the very same "
     "measurements, using all of them at once: the gap between a filter and it is the "
     "filter's loss. Time per epoch is one filter epoch: the prediction over a sensor "
-    "period plus the batch update (wall clock). Landmark ANEES: at each epoch the NEES of "
-    "every mapped landmark (2 dof) summed over the landmarks and runs, divided by 2 × "
-    "their number, averaged over the epochs; its 95 % band is that of the median number "
-    "of landmark blocks per epoch, and 'in band' counts the epochs inside their own band "
-    "(what landmarks.png draws)."
+    "period plus the batch update (wall clock). " + landmark_anees_rule(2)
 )
 
 
