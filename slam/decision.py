@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from slam.ranking import Metric, rank
+from slam.ranking import ONE_RUN, Metric, rank
 from slam.render.tables import verdict
 from slam.results import REFERENCE
 
@@ -45,13 +45,18 @@ def _metric_sentence(block: Mapping[str, Any], unit_fmt: str = ".3g") -> str:
         return f"{label}: no ranking ({block.get('reason', 'no paired runs')})."
     rows = block["rows"]
     best = block["best"]
-    head = (f"{label}: {best} has the lowest MSE over {block['runs']} paired runs "
-            f"(RMSE {rows[best]['rmse']:{unit_fmt}} {unit})")
+    rmse = f"RMSE {rows[best]['rmse']:{unit_fmt}} {unit}"
+    if block.get("significance"):
+        head = f"{label}: {best} has the lowest MSE on a single run ({rmse}; {ONE_RUN})"
+    else:
+        head = f"{label}: {best} has the lowest MSE over {block['runs']} paired runs ({rmse})"
     others = []
     for name in block["order"][1:]:
         r = rows[name]
         if r["verdict"] == "equal":
             others.append(f"{name} equal to 1e-6")
+        elif r["verdict"] == ONE_RUN:
+            others.append(f"{name} {_pct(r)}")
         elif r["z"] is None:
             others.append(f"{name} {_pct(r)} (every run worse)")
         else:

@@ -18,6 +18,11 @@ the level a world built to tell the filters apart must reach).  Ranks follow
 report says so.  Filters whose mean MSEs agree to :data:`IDENTICAL_RTOL` are *equal*:
 they share a rank (listed by name) whatever their z, since a difference of a millionth is
 round-off, not a property of the filter.
+
+With a single paired run (a recorded log is one run) the filters are still ordered by their
+MSE, but :math:`s_i` is undefined: ``delta_se`` and ``z`` are ``None`` with their reason
+and every verdict but ``best`` and ``equal`` is :data:`ONE_RUN` - no significance is
+claimed.
 """
 
 from __future__ import annotations
@@ -36,6 +41,8 @@ LEVEL = 2.0
 """Standard errors a paired difference must exceed to be called significant."""
 SEPARATED = 3.0
 """Standard errors a world made to separate the filters aims at."""
+ONE_RUN = "one run: no significance"
+"""The verdict of a filter ranked on a single paired run (no standard error exists)."""
 IDENTICAL_RTOL = 1e-6
 """Filters whose mean MSEs differ by less than this fraction of the best one are *equal*:
 a difference of a millionth is the arithmetic's (a differenced Jacobian, the order of a
@@ -115,9 +122,11 @@ def _ranks(mean: Array, names: Sequence[str]) -> list[int]:
     return ranks
 
 
-def _verdict(dm: float, se: float, best_mse: float) -> str:
+def _verdict(dm: float, se: float | None, best_mse: float) -> str:
     if abs(dm) <= IDENTICAL_RTOL * max(abs(best_mse), 1e-300):
         return "equal"
+    if se is None:
+        return ONE_RUN
     if se == 0.0:
         return "worse"
     z = dm / se
@@ -137,10 +146,11 @@ def rank(metric: Metric, names: Sequence[str] | None = None, reference: str | No
     best's RMSE), ``z`` (``None`` with ``z_reason`` when the standard error is 0),
     ``better_runs`` (runs it beat the best) and ``verdict`` (``best``, ``equal`` (to
     :data:`IDENTICAL_RTOL`), ``not significant``, ``significant``, ``separated``,
-    ``worse``); with fewer
-    than 2 paired runs only ``runs`` and a ``reason``.  ``reference`` (e.g. the smoother,
-    not ranked) adds its ``rmse`` over the runs it finished among the paired ones and the
-    best filter's RMSE over it on those runs (``reference.best_over_reference``).
+    ``worse``, or with a single paired run :data:`ONE_RUN`, ``delta_se`` and ``z`` then
+    ``None`` with their reasons); without a paired run only ``runs`` and a ``reason``.
+    ``reference`` (e.g. the smoother, not ranked) adds its ``rmse`` over the runs it
+    finished among the paired ones and the best filter's RMSE over it on those runs
+    (``reference.best_over_reference``).
     """
     names = list(metric.per_run_mse) if names is None else list(names)
     out: dict[str, Any] = {"label": metric.label, "unit": metric.unit,
@@ -151,8 +161,10 @@ def rank(metric: Metric, names: Sequence[str] | None = None, reference: str | No
     common = np.all(np.isfinite(M), axis=0)
     R = int(common.sum())
     out["runs"] = R
-    if R < 2:
-        return {**out, "reason": f"{R} run(s) finished by every filter; ranking needs 2"}
+    if R < 1:
+        return {**out, "reason": "no run with a score of every filter"}
+    if R == 1:
+        out["significance"] = ONE_RUN
     M = M[:, common]
     mean = M.mean(axis=1)
     ranks = _ranks(mean, names)
@@ -165,13 +177,17 @@ def rank(metric: Metric, names: Sequence[str] | None = None, reference: str | No
         r = ranks[i]
         d = M[i] - M[b]
         dm = float(d.mean())
-        se = float(d.std(ddof=1) / math.sqrt(R))
+        se = float(d.std(ddof=1) / math.sqrt(R)) if R > 1 else None
         row: dict[str, Any] = {"rank": r, "mse": float(mean[i]), "rmse": math.sqrt(mean[i]),
                                "delta_mse": dm, "delta_se": se,
                                "delta_percent": 100.0 * (math.sqrt(mean[i] / mean[b]) - 1.0)
                                if mean[b] > 0 else 0.0,
                                "better_runs": int(np.sum(d < 0))}
-        if se > 0.0:
+        if se is None:
+            row["delta_se_reason"] = row["z_reason"] = (
+                f"{ONE_RUN} (a standard error needs at least 2 paired runs)")
+            row["z"] = None
+        elif se > 0.0:
             row["z"] = dm / se
         else:
             row["z"] = None

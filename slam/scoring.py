@@ -160,3 +160,38 @@ def nis_and_timing(good: list) -> dict:
         out["nis_mean"] = float(np.mean(nis / dof))
     out.update(timing(good, "step"))
     return out
+
+
+def landmark_anees_entries(series: Sequence[Any], length: int | None = None,
+                           key: str = "landmark_anees") -> dict[str, Any]:
+    r"""The map's consistency in the summary keys of :func:`anees_entries`, from the runs'
+    :class:`~slam.mapping.map_series.MapSeries` (their ``nees`` sums, ``nees_count`` and
+    ``dof``), padded to ``length`` epochs (default: the longest run's).
+
+    At epoch :math:`k` the runs hold :math:`n_k` scored landmark blocks whose NEES sum to
+    :math:`S_k`; for a consistent filter :math:`S_k \sim \chi^2_{d n_k}`, so
+    :math:`a_k = S_k / (d n_k)` has the band of :func:`anees_band` with :math:`d n_k`
+    degrees of freedom (what ``landmarks.png`` draws).  ``key`` is the mean of
+    :math:`a_k` over the epochs with a landmark, ``key_bounds_95`` the band at the median
+    :math:`n_k` (the count changes as landmarks are added), ``key_steps_inside_95`` /
+    ``key_steps_above_95`` the fractions of those epochs inside / above their own band;
+    ``{}`` without any scored landmark."""
+    if not series:
+        return {}
+    nees = pad_stack([np.asarray(m.nees, dtype=float) for m in series], length)
+    count = pad_stack([np.asarray(m.nees_count, dtype=float) for m in series], length)
+    dof = int(series[0].dof)
+    total_n = np.nansum(count, axis=0)
+    ok = total_n > 0
+    if not ok.any():
+        return {}
+    n = total_n[ok]
+    value = np.nansum(nees, axis=0)[ok] / (dof * n)
+    alpha = 0.025
+    lo, hi = chi2_ppf(alpha, dof * n) / (dof * n), chi2_ppf(1 - alpha, dof * n) / (dof * n)
+    mid = float(np.median(n))
+    band = [float(chi2_ppf(alpha, dof * mid) / (dof * mid)),
+            float(chi2_ppf(1 - alpha, dof * mid) / (dof * mid))]
+    return {key: float(np.mean(value)), f"{key}_dof": dof, f"{key}_bounds_95": band,
+            f"{key}_steps_inside_95": float(np.mean((value >= lo) & (value <= hi))),
+            f"{key}_steps_above_95": float(np.mean(value > hi))}

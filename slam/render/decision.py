@@ -9,19 +9,38 @@ import textwrap
 from typing import Any
 
 from slam.render.document import Section
-from slam.render.tables import MISSING, TERMINAL_WIDTH, num, plain_table
+from slam.render.tables import MISSING, TERMINAL_WIDTH, Column, num, plain_table
 
 HEADER = ("rank", "filter", "RMSE", "ΔMSE vs best (± s.e.)", "ΔRMSE", "z", "verdict")
+
+
+def delta_text(row: dict[str, Any], unit: str = "") -> str:
+    """A ranking row's paired ΔMSE against the best: ``"+0.012 ± 0.003 m²"``, or with a
+    single run (no standard error) ``"+0.012 m² (one run)"``."""
+    sq = f" {unit}²" if unit else ""
+    if row.get("delta_se") is None:
+        return f"{row['delta_mse']:+.3g}{sq} (one run)"
+    return f"{row['delta_mse']:+.3g} ± {row['delta_se']:.2g}{sq}"
 
 
 def _cells(name: str, row: dict[str, Any], unit: str) -> list[str]:
     if row["verdict"] == "best":
         delta, pct, z = "best", "", ""
     else:
-        delta = f"{row['delta_mse']:+.3g} ± {row['delta_se']:.2g} {unit}²"
+        delta = delta_text(row, unit)
         pct = f"{row['delta_percent']:+.1f} %"
         z = num(row.get("z"), ".1f")
     return [str(row["rank"]), name, f"{row['rmse']:#.4g} {unit}", delta, pct, z, row["verdict"]]
+
+
+def rank_column(summary: dict[str, Any], metric: str, header: str = "rank") -> Column:
+    """A results-table column with each filter's rank on the summary's ranking ``metric``
+    (the missing mark for an estimator that is not ranked: a baseline, the smoother)."""
+    rows = ((summary.get("ranking") or {}).get(metric) or {}).get("rows") or {}
+
+    def cell(name: str, entry: dict[str, Any]) -> str:
+        return str(rows[name]["rank"]) if name in rows else MISSING
+    return Column(header, cell)
 
 
 def ranking_rows(block: dict[str, Any]) -> list[list[str]]:
@@ -31,6 +50,8 @@ def ranking_rows(block: dict[str, Any]) -> list[list[str]]:
 
 
 def _title(block: dict[str, Any]) -> str:
+    if block.get("significance"):
+        return f"{block['label']}: ranking on {block.get('runs', 0)} run ({block['significance']})"
     return (f"{block['label']}: paired ranking over {block.get('runs', 0)} runs "
             f"(significant: ΔMSE > {block['level_se']:g} s.e.; separated: > "
             f"{block['separated_se']:g} s.e.)")

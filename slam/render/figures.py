@@ -29,6 +29,7 @@ use only the runs an estimator did not diverge on, and draw ±2σ wherever a ban
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -55,6 +56,7 @@ from slam.render.plotting import (
 )
 from slam.render.series import (
     Component,
+    coincidence_note,
     map_per_epoch,
     paired_differences,
     rms,
@@ -114,7 +116,17 @@ def _grid(rows: Sequence[Sequence[Any]], height: float = 2.45, width: float = PA
     return fig, axes
 
 
-def _finish(fig, axes, result: CampaignResult, title: str, handles: list, path) -> None:
+COINCIDE = ("Estimators whose curves coincide (largest difference below 1 % of the curve) are "
+            "named above the legend with their largest difference.")
+"""The caption sentence of a figure that notes its coinciding curves."""
+NOTE_CHARS = 16
+"""Characters of an 8-point figure note per inch of figure width."""
+
+
+def _finish(fig, axes, result: CampaignResult, title: str, handles: list, path,
+            note: str = "") -> None:
+    """Axis labels, grid, the bottom legend with ``note`` (e.g. which curves coincide)
+    written just above it, the fixed layout, the title; save."""
     for ax in axes[-1]:
         if ax.axison:
             ax.set_xlabel("time (s)")
@@ -122,7 +134,13 @@ def _finish(fig, axes, result: CampaignResult, title: str, handles: list, path) 
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.tick_params(labelsize=9)
     bottom_legend(fig, handles)
-    inch_layout(fig, *axes.shape, bottom=legend_margin(len(handles), 6, row=0.22))
+    width, height = fig.get_size_inches()
+    lines = textwrap.wrap(note, int(NOTE_CHARS * width))
+    legend = legend_margin(len(handles), 6, row=0.22)
+    if lines:
+        fig.text(0.5, (legend - 0.45) / height, "\n".join(lines), ha="center", va="bottom",
+                 fontsize=8)
+    inch_layout(fig, *axes.shape, bottom=legend + 0.15 * len(lines))
     fig.suptitle(titled(result, title), fontsize=11)
     save(fig, path)
 
@@ -142,27 +160,35 @@ def _top(values: list[Array]) -> float:
 def rmse_sigma_figure(rows: Sequence[Sequence[Component]], title: str, *, log: bool = False,
                       estimators: Names = filters_and_reference,
                       colours: Colours = default_colours,
-                      decorate: Callable[[Any, Component, CampaignResult], None] | None = None
-                      ) -> Figure:
+                      decorate: Callable[[Any, Component, CampaignResult], None] | None = None,
+                      note_coinciding: bool = False) -> Figure:
     """Monte Carlo RMSE (solid) and RMS of the estimator's own σ (dashed) vs time, one
-    panel per component; ``decorate(ax, component, result)`` adds kind-specific marks."""
+    panel per component; ``decorate(ax, component, result)`` adds kind-specific marks;
+    ``note_coinciding`` writes above the legend which estimators' curves coincide, with
+    their largest difference (:func:`slam.render.series.coincidence_note`)."""
 
     def draw(result: CampaignResult, path) -> None:
         names, col = estimators(result), colours(result)
         t = run0(result).times
         fig, axes = _grid(rows)
+        curves: dict[str, dict[str, Array | None]] = {}
+        units: dict[str, str] = {}
         for i, row in enumerate(rows):
             for j, c in enumerate(row):
                 ax, drawn = axes[i, j], []
+                own = f"{c.axis_label} σ"
+                units[c.axis_label] = units[own] = c.unit
                 for name in names:
                     err = stacked(result, name, c.err)
                     if err is None:
                         continue
                     drawn.append(rms(err))
+                    curves.setdefault(c.axis_label, {})[name] = drawn[-1]
                     ax.plot(t, drawn[-1], color=col[name], lw=1.1)
                     sd = None if c.sigma is None else stacked(result, name, c.sigma)
                     if sd is not None:
                         drawn.append(rms(sd))
+                        curves.setdefault(own, {})[name] = drawn[-1]
                         ax.plot(t, drawn[-1], color=col[name], lw=1.1, ls="--")
                 ax.set_title(c.axis_label, fontsize=10)
                 ax.set_ylabel(f"RMSE, σ ({c.unit})", fontsize=9)
@@ -175,7 +201,8 @@ def rmse_sigma_figure(rows: Sequence[Sequence[Component]], title: str, *, log: b
                     decorate(ax, c, result)
         styles = [Line2D([], [], color="0.2", lw=1.1, label="Monte Carlo RMSE"),
                   Line2D([], [], color="0.2", lw=1.1, ls="--", label="RMS of own σ")]
-        _finish(fig, axes, result, title, _estimator_handles(names, col) + styles, path)
+        note = coincidence_note(curves, units, "curves") if note_coinciding else ""
+        _finish(fig, axes, result, title, _estimator_handles(names, col) + styles, path, note)
 
     return draw
 
@@ -342,11 +369,17 @@ def _fit(ax, values: list[Array]) -> None:
 
 # --------------------------------------------------------------------------- the map
 
+MAP_PANELS = {"landmark RMSE": "m", "landmark NEES / dof": "", "landmarks in the state": "",
+              "map covariance trace": "m²"}
+"""The map figure's panels (as a coincidence note names them) and their units."""
+
+
 def map_figure(title: str = "the map over time", *, estimators: Names = filter_names,
                colours: Colours = default_colours) -> Figure:
     """Landmark RMSE, landmark NEES / dof with its band, landmarks in the state and the
     trace of the map's covariance vs time (run averages of the filters' map series); the
-    smoother's final landmark RMSE as a horizontal line."""
+    smoother's final landmark RMSE as a horizontal line; above the legend, which filters'
+    curves coincide (:func:`slam.render.series.coincidence_note`)."""
 
     def draw(result: CampaignResult, path) -> None:
         names, col = estimators(result), colours(result)
@@ -354,10 +387,13 @@ def map_figure(title: str = "the map over time", *, estimators: Names = filter_n
         fig, axes = _grid([[0, 1], [2, 3]], height=2.6)
         (a_rmse, a_nees), (a_n, a_tr) = axes
         band = None
+        curves: dict[str, dict[str, Array | None]] = {k: {} for k in MAP_PANELS}
         for name in names:
             m = map_per_epoch(result, name)
             if m is None:
                 continue
+            for key, y in zip(MAP_PANELS, (m.rmse, m.nees.value, m.count, m.trace)):
+                curves[key][name] = y
             a_rmse.plot(t, m.rmse, color=col[name], lw=1.0)
             a_nees.plot(t, m.nees.value, color=col[name], lw=0.9,
                         label=_inside_label(name, m.nees.inside))
@@ -386,7 +422,8 @@ def map_figure(title: str = "the map over time", *, estimators: Names = filter_n
                          (a_nees, "landmark consistency (run average)"),
                          (a_n, "map size (run mean)"), (a_tr, "map uncertainty (run mean)")):
             ax.set_title(what, fontsize=10)
-        _finish(fig, axes, result, title, _estimator_handles(names, col), path)
+        _finish(fig, axes, result, title, _estimator_handles(names, col), path,
+                coincidence_note(curves, MAP_PANELS, "curves"))
 
     return draw
 

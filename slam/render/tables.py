@@ -250,6 +250,33 @@ def failure_notes(summary: dict[str, Any]) -> list[str]:
     return out
 
 
+def landmark_anees_rule(dof: int) -> str:
+    """How the landmark ANEES (:func:`slam.scoring.landmark_anees_entries`) is formed and
+    what its band means, in words (for the reports' notes)."""
+    return (f"Landmark ANEES: at each epoch the NEES of every mapped landmark ({dof} dof) "
+            f"summed over the landmarks and runs, divided by {dof} × their number, averaged "
+            "over the epochs; its 95 % band is that of the median number of landmark blocks "
+            "per epoch, and 'in band' counts the epochs inside their own band (what "
+            "landmarks.png draws). The band treats the landmarks' NEES as independent; they "
+            "share the vehicle's error, so the true spread is wider and a verdict near the "
+            "band's edge is weak evidence (the ANEES itself, a mean, is not affected).")
+
+
+def smoother_cost(summary: dict[str, Any], how: str, reference: str = "gtsam") -> str:
+    """The smoother's cost in its own unit, seconds per run (``time_s``, else
+    ``time_per_run_s`` of its ``reference`` entry; with ``marginals_time_s`` if there is
+    one), in one sentence; ``how`` names its method; ``""`` without a timed smoother."""
+    r = (summary.get("reference") or {}).get(reference) or {}
+    seconds = r.get("time_s", r.get("time_per_run_s"))
+    if num(seconds, "g") == MISSING:
+        return ""
+    marg = r.get("marginals_time_s")
+    extra = (f" and {num(marg, '.2f')} s for its marginals" if num(marg, "g") != MISSING
+             else "")
+    return (f"The {reference} smoother is a batch solve ({how}): {num(seconds, '.2f')} s per "
+            f"run{extra}; the filters' cost is per epoch.")
+
+
 def band_note(summary: dict[str, Any], key: str = "anees_bounds_95", what: str = "ANEES"
               ) -> str:
     """The 95 % band(s) of the summary's ANEES and the verdict rule, in one note."""

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from slam.decision import Consistency, decide
-from slam.ranking import Metric, paired, per_run_mse, rank
-from slam.render.decision import decision_sections, decision_text
+from slam.ranking import ONE_RUN, Metric, paired, per_run_mse, rank
+from slam.render.decision import decision_sections, decision_text, ranking_rows
 
 
 def test_paired_difference_equals_a_hand_computation():
@@ -56,8 +56,38 @@ def test_runs_a_filter_did_not_finish_are_left_out_of_every_pair():
     out = rank(Metric("p", "p", "m", {"a": [1.0, np.nan, 1.0, 1.0],
                                       "b": [2.0, 0.0, 2.0, 2.1]}))
     assert out["runs"] == 3 and out["best"] == "a"
-    one = rank(Metric("p", "p", "m", {"a": [1.0, np.nan], "b": [2.0, 1.0]}))
-    assert one["runs"] == 1 and "reason" in one and "rows" not in one
+    none = rank(Metric("p", "p", "m", {"a": [1.0, np.nan], "b": [np.nan, 1.0]}))
+    assert none["runs"] == 0 and "reason" in none and "rows" not in none
+
+
+def test_one_run_is_ordered_but_claims_no_significance():
+    """A single paired run (a recorded log): the filters are ordered by their MSE, the
+    standard error and z are null with their reason, and no verdict is a significance."""
+    m = Metric("p", "position", "m", {"a": [4.0, np.nan], "b": [1.0, 2.0], "c": [1.0, 3.0],
+                                      "d": [9.0, 9.0]})
+    out = rank(m, ["a", "b", "d"])
+    assert out["runs"] == 1 and out["significance"] == ONE_RUN
+    assert out["order"] == ["b", "a", "d"] and out["best"] == "b"
+    ra, rd = out["rows"]["a"], out["rows"]["d"]
+    assert [out["rows"][n]["rank"] for n in out["order"]] == [1, 2, 3]
+    assert ra["delta_mse"] == 3.0 and ra["delta_se"] is None and ra["z"] is None
+    assert ra["delta_se_reason"].startswith(ONE_RUN) and ra["z_reason"]
+    assert ra["verdict"] == rd["verdict"] == ONE_RUN and out["rows"]["b"]["verdict"] == "best"
+    assert not set(LEVELS) & {r["verdict"] for r in out["rows"].values()}
+    same = rank(Metric("p", "p", "m", {"a": [2.0], "b": [2.0]}))
+    assert same["rows"]["b"]["verdict"] == "equal" and same["rows"]["b"]["rank"] == 1
+
+    s = decide({"filters": {"a": {}, "b": {}, "d": {}}}, [m], filters=["a", "b", "d"],
+               consistency=None, reference=None)
+    assert s["headline"].startswith(f"Position: b has the lowest MSE on a single run (RMSE 1 m; "
+                                    f"{ONE_RUN}); a +100.0 %, d +200.0 %.")
+    assert "s.e." not in s["headline"] and ONE_RUN in decision_text(s)
+    rows = ranking_rows(s["ranking"]["p"])
+    assert rows[1][3] == "+3 m² (one run)" and rows[1][-1] == ONE_RUN
+    assert not any("±" in c for r in rows for c in r)
+
+
+LEVELS = ("significant", "separated", "not significant", "worse")
 
 
 def test_paired_and_per_run_mse():

@@ -152,3 +152,33 @@ def test_track_frame_rotates_errors_and_covariances_into_the_heading():
     np.testing.assert_allclose(sig[1], [np.sqrt(3.0), 1.0], atol=1e-12)
     _, nan = track_frame(err[:1], np.full((1, 2, 2), np.nan), np.zeros(1))
     assert np.isnan(nan).all()
+
+
+def test_landmark_anees_entries_against_a_hand_computation():
+    """Two runs of a 2-dof map: per epoch the summed NEES over (2 × the landmark blocks),
+    each epoch against its own χ² band, the value their mean, the band at the median
+    count; epochs without a landmark and a shorter run's missing epochs left out."""
+    from slam.mapping.map_series import MapSeries
+    from slam.scoring import landmark_anees_entries
+
+    def series(nees, count):
+        z = np.zeros(len(nees), dtype=np.float32)
+        return MapSeries(z, z, z, np.asarray(nees, np.float32), np.asarray(count, np.float32),
+                         z, 2)
+
+    a = series([0.0, 4.0, 30.0, 6.0], [0, 2, 3, 3])
+    b = series([0.0, 2.0, 1.0], [0, 1, 1])  # one epoch shorter
+    out = landmark_anees_entries([a, b])
+    n = np.array([3.0, 4.0, 3.0])
+    value = np.array([6.0, 31.0, 6.0]) / (2 * n)
+    lo, hi = chi2.ppf(0.025, 2 * n) / (2 * n), chi2.ppf(0.975, 2 * n) / (2 * n)
+    inside = (value >= lo) & (value <= hi)
+    assert out["landmark_anees"] == pytest.approx(value.mean(), rel=1e-6)
+    assert out["landmark_anees_dof"] == 2
+    assert out["landmark_anees_bounds_95"] == pytest.approx(
+        [chi2.ppf(0.025, 6) / 6, chi2.ppf(0.975, 6) / 6], rel=1e-9)
+    assert out["landmark_anees_steps_inside_95"] == pytest.approx(inside.mean())
+    assert out["landmark_anees_steps_above_95"] == pytest.approx((value > hi).mean())
+    assert not inside.all() and (value > hi).any()  # epoch 2 is above its band
+    assert landmark_anees_entries([series([0.0, 0.0], [0, 0])]) == {}
+    assert landmark_anees_entries([]) == {}

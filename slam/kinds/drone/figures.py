@@ -21,6 +21,7 @@ import numpy as np
 from slam.kinds.drone.scene import IMU_ONLY, drone_colours, result_terrain
 from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
+    COINCIDE,
     FigureSpec,
     Tracked,
     differences_figure,
@@ -79,9 +80,10 @@ def shared_specs() -> list[FigureSpec]:
                    "estimator's own σ (dashed) per epoch: position, velocity, attitude (deg, "
                    "Z-Y-X Euler), and the horizontal error along and across the true "
                    "direction of travel. A consistent filter's two curves coincide; the "
-                   "smoother has no velocity σ; IMU only is left out (see drift.png).",
-                   rmse_sigma_figure([POSITION, VELOCITY, ATTITUDE, TRACK],
-                                     "error vs predicted σ")),
+                   "smoother has no velocity σ; IMU only is left out (see drift.png). "
+                   + COINCIDE, rmse_sigma_figure([POSITION, VELOCITY, ATTITUDE, TRACK],
+                                                 "error vs predicted σ",
+                                                 note_coinciding=True)),
         FigureSpec("bias.png", "Run 0: gyro (deg/h) and accelerometer (mg) bias estimates "
                    "against the truth (black, a random walk from the drawn turn-on bias), "
                    "each filter's ±2σ (thin); the smoother dashed. The y range leaves out "
@@ -95,7 +97,7 @@ def shared_specs() -> list[FigureSpec]:
         FigureSpec("landmarks.png", "The filters' maps per epoch (run averages): RMSE and "
                    "NEES / 3 of the landmarks in the state (against the band), landmarks in "
                    "the state, trace of the map covariance; the smoother's final landmark "
-                   "RMSE dashed.", map_figure("the map over time")),
+                   "RMSE dashed. " + COINCIDE, map_figure("the map over time")),
         FigureSpec("differences.png", "Each filter minus the base filter (SRCKF) on the "
                    "same runs (truth cancels): RMS over runs per epoch of the position and "
                    "attitude (Z-Y-X Euler) differences, with the base filter's RMS σ "

@@ -33,11 +33,11 @@ from typing import Any
 
 from slam.kind import Deferred
 from slam.kinds.drone.scene import write_scene_glb, write_tum_3d
+from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
 from slam.render.output import tum_names
 from slam.render.tables import (
     DIVERGED,
-    DIVERGED_SHORT,
     ESTIMATOR,
     LANDMARK_RMSE,
     MISSING,
@@ -49,11 +49,13 @@ from slam.render.tables import (
     consistency_columns,
     consistency_rule,
     error_range,
+    landmark_anees_rule,
     num,
     terminal_text,
     value,
 )
-from slam.results import CampaignResult
+from slam.render.tables import smoother_cost as tables_smoother_cost
+from slam.results import REFERENCE, CampaignResult
 
 _AXES = ("x", "y", "z")
 _ATT = ("roll", "pitch", "yaw")
@@ -66,34 +68,62 @@ def _attitude_cell(name: str, e: dict[str, Any]) -> str:
     return "/".join(num(att.get(a), ".3f") for a in _ATT) if att else MISSING
 
 
-TABLE = Table((ESTIMATOR, POS_RMSE, *map(error_range, _AXES),
-               Column("roll/pitch/yaw RMSE (deg)", _attitude_cell), LANDMARK_RMSE,
-               Column("time/epoch (ms)", value("time_per_step_s", ".2f", 1e3)), DIVERGED))
-"""The report's results table: accuracy and time."""
+def _run_time(name: str, e: dict[str, Any]) -> str:
+    """Wall time per run (s): the filters' and, for the smoother, its solve (the marginals
+    are in :func:`smoother_cost`)."""
+    return num(e.get("time_s" if name == REFERENCE else "time_per_run_s"), ".2f")
+
+
+def _epoch_time(name: str, e: dict[str, Any]) -> str:
+    """Time per epoch (ms); none for the smoother, a batch solve (its cost is per run)."""
+    return MISSING if name == REFERENCE else num(e.get("time_per_step_s"), ".2f", 1e3)
+
+
+MAP_CONSISTENCY = consistency_columns("landmark_anees", "landmarks")
+"""The landmark ANEES with its band, the fraction of epochs in band and the verdict."""
+
+
+def results_table(summary: dict[str, Any]) -> Table:
+    """The report's results table: position rank, accuracy, the map's verdict, time."""
+    return Table((ESTIMATOR, rank_column(summary, "position", "rank (pos)"), POS_RMSE,
+                  *map(error_range, _AXES), Column("roll/pitch/yaw RMSE (deg)", _attitude_cell),
+                  LANDMARK_RMSE, MAP_CONSISTENCY[2], Column("time/epoch (ms)", _epoch_time),
+                  Column("s/run", _run_time), DIVERGED))
+
 
 CONSISTENCY = Table((ESTIMATOR, *consistency_columns("anees", "position"),
-                     *consistency_columns("anees_pose6", "pose"), NIS))
-"""The report's consistency table: position and pose ANEES, fraction of epochs in band,
-verdict, NIS."""
+                     *consistency_columns("anees_pose6", "pose"), *MAP_CONSISTENCY, NIS))
+"""The report's consistency table: position, pose and landmark ANEES, fraction of epochs
+in band, verdict, NIS."""
 
-COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
-                 Column("yaw RMSE\n(deg)", value("heading_rmse_deg", ".3f")),
-                 Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
-                 *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",
-                                                           "verdict")),
-                 Column("ANEES\npose", value("anees_pose6", ".2f")),
-                 Column("time/epoch\n(ms)", value("time_per_step_s", ".2f", 1e3)),
-                 DIVERGED_SHORT))
-"""The terminal table: fits 100 columns (ranges, roll / pitch and the pose verdict are in
-the report)."""
+
+def compact_table(summary: dict[str, Any]) -> Table:
+    """The terminal table: fits 100 columns (ranges, roll / pitch, the pose verdict and the
+    landmark ANEES are in the report)."""
+    return Table((ESTIMATOR, rank_column(summary, "position", "rank\npos"),
+                  Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
+                  Column("yaw RMSE\n(deg)", value("heading_rmse_deg", ".3f")),
+                  Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
+                  *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",
+                                                            "verdict")),
+                  Column("map\nverdict", MAP_CONSISTENCY[2].cell),
+                  Column("ms/\nepoch", _epoch_time), Column("div.\nruns", DIVERGED.cell)))
+
+
+def smoother_cost(summary: dict[str, Any]) -> str:
+    """The GTSAM smoother's cost in its own unit: seconds per run (solve, marginals)."""
+    return tables_smoother_cost(summary, "iSAM2 + Levenberg-Marquardt")
 
 
 def drone_text_table(summary: dict[str, Any]) -> str:
-    """The compact terminal table, failure reasons and the ANEES band (≤ 100 columns)."""
-    return terminal_text(COMPACT, summary, [
+    """The compact terminal table, failure reasons, the ANEES band and the smoother's cost
+    (≤ 100 columns), then the decision (rankings, settings, headline)."""
+    table = terminal_text(compact_table(summary), summary, [
         band_note(summary, what="position ANEES"),
-        "ANEES pose: 6-dof [position, attitude] NEES / 6; ranges, roll / pitch RMSE and "
-        "the pose verdict: report.html"])
+        "ANEES pose: 6-dof [position, attitude] NEES / 6; map verdict: the landmark NEES; "
+        "ranges, roll / pitch RMSE, the pose and landmark ANEES: report.html",
+        smoother_cost(summary)])
+    return table + "\n\n" + decision_text(summary)
 
 
 def drift_rows(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
@@ -131,6 +161,9 @@ HOW_TO_READ = (
 )
 
 
+LANDMARK_NOTE = landmark_anees_rule(3)
+
+
 def _flight_note(summary: dict[str, Any]) -> str:
     f = summary.get("flight") or {}
     if not f:
@@ -143,10 +176,15 @@ def _flight_note(summary: dict[str, Any]) -> str:
 
 
 def drone_sections(summary: dict[str, Any]) -> list[Section]:
-    """Results, the paper's x/y/z ranges next to ours, per-loop drift, how to read."""
-    out = [Section("Results", TABLE.header, TABLE.rows(summary), _flight_note(summary)),
-           Section("Consistency", CONSISTENCY.header, CONSISTENCY.rows(summary),
-                   consistency_rule()),
+    """The headline, results, the rankings and settings, consistency, the paper's x/y/z
+    ranges next to ours, per-loop drift, how to read."""
+    table = results_table(summary)
+    head, *rest = decision_sections(summary) or [None]
+    results = Section("Results", table.header, table.rows(summary),
+                      f"{_flight_note(summary)} {smoother_cost(summary)}".strip())
+    out = [s for s in (head, results, *rest) if s is not None]
+    out += [Section("Consistency", CONSISTENCY.header, CONSISTENCY.rows(summary),
+                    consistency_rule() + " " + LANDMARK_NOTE),
            paper_ranges_section(summary, "Paper vs ours: drone position error ranges",
                                 "Ours are the minimum and maximum error over every epoch of "
                                 "every run that did not diverge.")]

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from slam.decision import Consistency, decide
 from slam.failures import run_reference
 from slam.kinds.drone.filtering import IMU_ONLY, imu_only, run_drone_batch
 from slam.kinds.drone.reference import failed_reference, smooth_drone
@@ -45,7 +46,9 @@ from slam.kinds.drone.scoring import score, summarize_scores, track_of
 from slam.kinds.drone.simulate import simulate_drone
 from slam.kinds.drone.truth import truth_of
 from slam.kinds.drone.variants import INVARIANT_BASES
+from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import REFERENCE, RunOutcome
+from slam.scoring import landmark_anees_entries
 
 FILTER_DESCRIPTIONS = {
     "ekf": "EKF-SLAM: error-state EKF, quaternion retracted by multiplication",
@@ -115,9 +118,33 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
     return outcomes
 
 
+def headline_metrics(outcomes: list[RunOutcome], names: Sequence[str]) -> list[Metric]:
+    """The drone's headline metrics, each filter's per-run MSE over the sensor epochs:
+    3-D position (m), yaw (deg; the attitude angle the landmarks observe least) and the
+    final landmark positions (m)."""
+    return [
+        Metric("position", "position", "m", {n: per_run(outcomes, n, lambda s: float(
+            per_run_mse(s.err_pos[None])[0])) for n in names}),
+        Metric("yaw", "yaw", "deg", {n: per_run(outcomes, n, lambda s: float(
+            per_run_mse(np.degrees(s.err_att[None, :, 2]))[0])) for n in names}),
+        Metric("landmarks", "landmarks (final)", "m", {n: per_run(outcomes, n, lambda s: float(
+            np.mean(s.lm_err**2)) if s.lm_err.size else np.nan) for n in names}),
+    ]
+
+
+def _map_consistency(outcomes: list[RunOutcome], name: str, epochs: int) -> dict[str, Any]:
+    """The landmark ANEES entries of filter ``name`` over the runs it finished."""
+    series = [o.scores[name].map_series for o in outcomes
+              if name in o.scores and not o.scores[name].diverged
+              and o.scores[name].map_series is not None]
+    return landmark_anees_entries(series, epochs)
+
+
 def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs: int,
                     seed: int) -> dict:
-    """The ``summary.json`` dict of a drone SINS/SLAM campaign."""
+    """The ``summary.json`` dict of a drone SINS/SLAM campaign, with the paired ranking of
+    the filters by position, yaw and landmark MSE, the landmark ANEES and the headline
+    (:func:`slam.decision.decide`)."""
     traj, _ = truth_of(world)
     n = world.samples_per_epoch
     times = np.arange(traj.n_samples // n + 1) * n * traj.dt
@@ -172,4 +199,11 @@ def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs:
                          + ("on" if world.imu.earth_rate else "off"),
     }
     out["paper"] = world.paper
-    return out
+    for name in filters:
+        out["filters"][name].update(_map_consistency(outcomes, name, len(times)))
+    fs = world.filters
+    return decide(out, headline_metrics(outcomes, [*filters, REFERENCE]), filters=filters,
+                  consistency=Consistency(label="position"),
+                  settings={n_: fs.settings_of(n_) for n_ in filters},
+                  settings_text={n_: fs.describe(n_) for n_ in filters},
+                  variants={b: f"{b}-inv" for b in INVARIANT_BASES})

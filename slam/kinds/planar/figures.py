@@ -15,6 +15,7 @@ import numpy as np
 from slam.kinds.planar.map_figure import plot_map
 from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
+    COINCIDE,
     FigureSpec,
     differences_figure,
     error_grid_figure,
@@ -71,7 +72,8 @@ def figure_specs() -> list[FigureSpec]:
                    "estimator's own σ (dashed) per epoch: x, y, heading; along-track and "
                    "cross-track (in the true heading's frame) and horizontal position. A "
                    "consistent filter's two curves coincide. Odometry is left out (see the "
-                   "table).", rmse_sigma_figure(POSE_ROWS, "error vs predicted σ")),
+                   "table). " + COINCIDE,
+                   rmse_sigma_figure(POSE_ROWS, "error vs predicted σ", note_coinciding=True)),
         FigureSpec("nees.png", "Pose NEES / 3 and NIS / dof per epoch (run averages) "
                    "against their 95 % bands (dashed: constant band; grey: a band that "
                    "varies with the number of updates), with the fraction of epochs inside; "
@@ -80,7 +82,7 @@ def figure_specs() -> list[FigureSpec]:
         FigureSpec("landmarks.png", "The filters' maps per epoch (run averages): RMSE and "
                    "NEES / 2 of the landmarks in the state (against the band), landmarks "
                    "in the state, trace of the map covariance; the smoother's final "
-                   "landmark RMSE dashed.", map_figure("the map over time")),
+                   "landmark RMSE dashed. " + COINCIDE, map_figure("the map over time")),
         FigureSpec("differences.png", "Each filter minus the base filter (SRCKF) on the "
                    "same runs (truth cancels): RMS over runs per epoch, with the base "
                    "filter's RMS σ (dotted) for scale.",

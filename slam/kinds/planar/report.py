@@ -31,31 +31,48 @@ from slam.render.output import tum_text as tum_lines
 from slam.render.tables import (
     DIVERGED_SHORT,
     ESTIMATOR,
+    MISSING,
     NIS,
     Column,
     Table,
     band_note,
     consistency_columns,
     consistency_rule,
+    landmark_anees_rule,
+    num,
     slam_table,
+    smoother_cost,
     terminal_text,
     value,
 )
-from slam.results import Array, CampaignResult
+from slam.results import REFERENCE, Array, CampaignResult
 
-TIME = Column("time/epoch (µs)", value("time_per_step_s", ".1f", 1e6))
+
+def _epoch_time(name: str, e: dict[str, Any]) -> str:
+    """Time per filter epoch (µs); none for the smoother, a batch solve (its cost is per
+    run: :func:`~slam.render.tables.smoother_cost`)."""
+    return MISSING if name == REFERENCE else num(e.get("time_per_step_s"), ".1f", 1e6)
+
+
+SMOOTHER = "iSAM2, then Levenberg-Marquardt"
+TIME = Column("time/epoch (µs)", _epoch_time)
+MAP_CONSISTENCY = consistency_columns("landmark_anees", "landmarks")
+"""The landmark ANEES with its band, the fraction of epochs in band and the verdict."""
 
 RESULTS = slam_table("xy", Column("heading RMSE (deg)", value("heading_rmse_deg", ".2f")),
-                     consistency_columns(), TIME)
+                     (*consistency_columns(), *MAP_CONSISTENCY), TIME)
 """The report's results table (every column)."""
 
 COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
-                 Column("heading\nRMSE (deg)", value("heading_rmse_deg", ".2f")),
+                 Column("heading\n(deg)", value("heading_rmse_deg", ".2f")),
                  Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
                  *consistency_columns(band=False, headers=("ANEES", "in\nband", "verdict")),
-                 NIS, Column("time/epoch\n(µs)", value("time_per_step_s", ".1f", 1e6)),
-                 DIVERGED_SHORT))
-"""The terminal table: fits 100 columns (the x / y ranges are in the report)."""
+                 Column("map\nverdict", MAP_CONSISTENCY[2].cell),
+                 Column("NIS/\ndof", NIS.cell),
+                 Column("µs/\nepoch", _epoch_time),
+                 Column("div.\nruns", DIVERGED_SHORT.cell)))
+"""The terminal table: fits 100 columns (the x / y ranges and the landmark ANEES are in
+the report; heading is the RMSE, map verdict the landmark NEES's)."""
 
 
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
@@ -71,7 +88,8 @@ def results_table(summary: dict[str, Any]) -> str:
 def text_table(summary: dict[str, Any]) -> str:
     """The compact terminal table, failure reasons and the ANEES band (≤ 100 columns)."""
     table = terminal_text(COMPACT, summary,
-                          [band_note(summary), "x / y error ranges and figures: report.html"])
+                          [band_note(summary), smoother_cost(summary, SMOOTHER),
+                           "x / y error ranges, the landmark ANEES and figures: report.html"])
     return table + "\n\n" + decision_text(summary)
 
 
@@ -86,7 +104,7 @@ HOW_TO_READ = (
     "beat. The `gtsam` row is the batch-optimal smoother (GTSAM) on the very same "
     "measurements, using all of them at once: the gap between a filter and it is the "
     "filter's loss. Time per epoch is one filter epoch: the prediction over a sensor "
-    "period plus the batch update (wall clock)."
+    "period plus the batch update (wall clock). " + landmark_anees_rule(2)
 )
 
 
@@ -97,7 +115,9 @@ def planar_sections(summary: dict[str, Any]) -> list[Section]:
         "Ours are the minimum and maximum x / y error over every epoch of every run that did "
         "not diverge.")
     head, *rest = decision_sections(summary) or [None]
-    return [s for s in (head, Section("Results", RESULTS.header, result_rows(summary)), *rest,
+    results = Section("Results", RESULTS.header, result_rows(summary),
+                      smoother_cost(summary, SMOOTHER))
+    return [s for s in (head, results, *rest,
                         paper, Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 

@@ -21,6 +21,7 @@ from slam.kinds.planar.slam import dead_reckoning_batch, epochs_of, run_slam_bat
 from slam.kinds.planar.variants import INVARIANT_BASES
 from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
+from slam.scoring import landmark_anees_entries
 
 
 def run_once(world, run: int, seed_seq: np.random.SeedSequence, filters: Sequence[str],
@@ -110,10 +111,15 @@ def _reference(log, steps, truth, scores: dict, tracks: dict | None) -> None:
 
 def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs: int,
                      seed: int) -> dict:
-    """The ``summary.json`` dict of a planar SLAM campaign, with the paired ranking of the
-    filters by position and landmark MSE and the headline (:func:`slam.decision.decide`)."""
+    """The ``summary.json`` dict of a planar SLAM campaign, with each filter's landmark
+    ANEES (:func:`slam.scoring.landmark_anees_entries`), the paired ranking of the filters
+    by position and landmark MSE and the headline (:func:`slam.decision.decide`)."""
     names = filters + [ODOMETRY, REFERENCE]
     entries = {n: summarize([o.scores[n] for o in outcomes]) for n in names}
+    for n in filters:
+        entries[n].update(landmark_anees_entries([
+            o.scores[n].map_series for o in outcomes
+            if not o.scores[n].diverged and o.scores[n].map_series is not None]))
     summary = {
         "world": world.name,
         "kind": world.kind,

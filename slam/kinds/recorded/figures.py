@@ -15,13 +15,22 @@ the pose index along the odometry chain (the log carries no time stamps).
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 from matplotlib.lines import Line2D
 
 from estimators import wrap_angle
 from slam.kinds.recorded.scoring import rigid_fit
-from slam.render.figures import PANEL_WIDTH, Figure, FigureSpec, default_colours, figure_table
+from slam.render.figures import (
+    COINCIDE,
+    NOTE_CHARS,
+    PANEL_WIDTH,
+    Figure,
+    FigureSpec,
+    default_colours,
+    figure_table,
+)
 from slam.render.plotting import (
     BASELINE_COLOUR,
     REFERENCE_COLOUR,
@@ -33,7 +42,7 @@ from slam.render.plotting import (
     save,
     titled,
 )
-from slam.render.series import chi2_band, fraction_inside
+from slam.render.series import chi2_band, coincidence_note, fraction_inside
 from slam.results import ODOMETRY, REFERENCE, CampaignResult
 
 DEG = 180.0 / math.pi
@@ -165,14 +174,35 @@ def plot_pose_diff(result: CampaignResult, path) -> None:
     save(fig, path)
 
 
+def map_state_curves(result: CampaignResult) -> dict[str, dict[str, np.ndarray | None]]:
+    """Each filter's map-state curves, panel -> filter -> curve (for the coincidence
+    note): landmarks in the state and the map covariance trace per epoch."""
+    tracks = _tracks(result)
+    out: dict[str, dict[str, np.ndarray | None]] = {k: {} for k in MAP_STATE_UNITS}
+    for name in _filters(result):
+        m = tracks[name].map_series
+        if m is not None:
+            out["landmarks in the state"][name] = np.asarray(m.n, dtype=float)
+            out["map covariance trace"][name] = np.asarray(m.trace, dtype=float)
+    return out
+
+
+MAP_STATE_UNITS = {"landmarks in the state": "", "map covariance trace": "m²"}
+
+
 def plot_map_state(result: CampaignResult, path) -> None:
     """Landmarks in the state, the trace of the map covariance and the NIS / dof over
-    windows of :data:`WINDOW` updates against its 95 % band."""
+    windows of :data:`WINDOW` updates against its 95 % band; under the legend, which
+    filters' map curves coincide (:func:`slam.render.series.coincidence_note`)."""
     tracks, col = _tracks(result), default_colours(result)
     fig, axes = plt.subplots(3, 1, figsize=(PANEL_WIDTH, 8.4), sharex=True)
+    lines = textwrap.wrap(coincidence_note(map_state_curves(result), MAP_STATE_UNITS,
+                                           "map curves"), int(NOTE_CHARS * PANEL_WIDTH))
+    legend = legend_margin(len(_filters(result)) + 1, 2, base=0.65, row=0.21)
+    if lines:
+        fig.text(0.5, 0.08 / 8.4, "\n".join(lines), ha="center", va="bottom", fontsize=8)
     # the NIS legend hangs below the last axes
-    inch_layout(fig, 3, 1, left=0.75, top=0.35, hgap=0.15,
-                bottom=legend_margin(len(_filters(result)) + 1, 2, base=0.65, row=0.21))
+    inch_layout(fig, 3, 1, left=0.75, top=0.35, hgap=0.15, bottom=legend + 0.15 * len(lines))
     for name in _filters(result):
         tr = tracks[name]
         k = tr.steps.astype(int)
@@ -243,8 +273,8 @@ def figure_specs() -> list[FigureSpec]:
                    plot_pose_diff),
         FigureSpec("map_state.png", "Per filter epoch: landmarks in the state, trace of the "
                    "map covariance, and the NIS / dof over windows of 25 batch updates against "
-                   "its 95 % band (grey): the filters' only consistency check without truth.",
-                   plot_map_state),
+                   "its 95 % band (grey): the filters' only consistency check without truth. "
+                   + COINCIDE.replace("above the legend", "at the bottom"), plot_map_state),
     ]
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from slam.kind import Deferred
 from slam.kinds.planar.report import tum_text
+from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section
 from slam.render.output import write_tum
 from slam.render.tables import (
@@ -28,14 +29,14 @@ from slam.render.tables import (
 )
 from slam.results import REFERENCE, CampaignResult
 
-LOG_COLUMNS = ("estimator", "lm dist\nmed (m)", "lm dist\nmax (m)", "aligned\nmed (m)",
+LOG_COLUMNS = ("estimator", "rank\npos", "lm dist\nmed (m)", "lm dist\nmax (m)", "aligned\nmed (m)",
                "map rot.\n(deg)", "final\npose (m)", "pose\nRMSE (m)", "time\n(s)",
                "iSAM2 /\nfilter", "diverged")
 
 
-def _row(name: str, e: dict[str, Any]) -> list[str]:
+def _row(name: str, e: dict[str, Any], rank: str) -> list[str]:
     diverged = e.get("diverged")
-    return [name, num(e.get("landmark_dist_to_ref_median_m"), ".3f"),
+    return [name, rank, num(e.get("landmark_dist_to_ref_median_m"), ".3f"),
             num(e.get("landmark_dist_to_ref_max_m"), ".3f"),
             num(e.get("landmark_dist_to_ref_aligned_median_m"), ".3f"),
             num(e.get("map_rotation_to_ref_deg"), "+.2f"),
@@ -46,8 +47,10 @@ def _row(name: str, e: dict[str, Any]) -> list[str]:
 
 
 def log_rows(summary: dict[str, Any]) -> list[list[str]]:
-    """One row per filter, the odometry and the smoother (distances are to the smoother)."""
-    return [_row(name, e) for name, e in estimator_entries(summary)]
+    """One row per filter, the odometry and the smoother (distances are to the smoother;
+    the rank is the filters' by position difference to the smoother)."""
+    rank = rank_column(summary, "position").cell
+    return [_row(name, e, rank(name, e)) for name, e in estimator_entries(summary)]
 
 
 def log_head(summary: dict[str, Any]) -> str:
@@ -70,7 +73,7 @@ def log_table(summary: dict[str, Any]) -> str:
              "Distances are to the smoother's estimate; aligned: after the best rigid "
              "rotation + translation of the filter's map. Figures: report.html"]
     return "\n".join([wrap(log_head(summary)), "", plain_table(LOG_COLUMNS, log_rows(summary)),
-                      *(wrap(n) for n in notes)])
+                      *(wrap(n) for n in notes), "", decision_text(summary)])
 
 
 HOW_TO_READ = (
@@ -81,13 +84,18 @@ HOW_TO_READ = (
     "whole filter map (a map rotated as a whole is a heading error, what remains is "
     "distortion); `map rot.` that rotation; `final pose` the distance between the final "
     "poses; `pose RMSE` the position difference to the smoother over the filter's epochs; "
-    "`iSAM2 / filter` the smoother's iSAM2 time over the filter's. The filters' own "
+    "`iSAM2 / filter` the smoother's iSAM2 time over the filter's. The ranking orders the "
+    "filters by their mean squared position (and heading) difference to the smoother over "
+    "their epochs; a log is one run, so no difference can be called significant. The "
+    "filters' own "
     "consistency can only be checked on their innovations (NIS, map_state.png).")
 
 
 def _sections(summary: dict[str, Any]) -> list[Section]:
-    return [Section("Results", LOG_COLUMNS, log_rows(summary), log_head(summary)),
-            Section("How to read this", text=HOW_TO_READ)]
+    head, *rest = decision_sections(summary) or [None]
+    return [s for s in (head, Section("Results", LOG_COLUMNS, log_rows(summary),
+                                      log_head(summary)), *rest,
+                        Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 
 def _tracks(result: CampaignResult) -> dict:

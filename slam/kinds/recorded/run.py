@@ -14,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from slam.decision import decide
 from slam.kinds.recorded.scoring import run_log
 from slam.kinds.recorded.tracks import log_tracks
 from slam.kinds.recorded.world import KIND, RecordedWorld
+from slam.ranking import Metric, per_run
 from slam.results import RunOutcome
 
 _GROUPS = ("filters", "baselines", "reference")
@@ -52,9 +54,34 @@ def run_once(world: RecordedWorld, run: int, seed_seq: np.random.SeedSequence,
                       times=np.arange(world.log.n_poses, dtype=float))
 
 
+AGAINST_SMOOTHER = ("A recorded log has no ground truth: the filters are ranked by their "
+                    "difference to the GTSAM smoother's trajectory on the same measurements, "
+                    "not by their error.")
+"""The first sentence of a recorded log's headline."""
+
+
+def _squared(key: str):
+    def get(s: RecordedScores) -> float:
+        v = s.values.get(key)
+        return float(v) ** 2 if v is not None else float("nan")
+    return get
+
+
+def smoother_metrics(outcomes: list[RunOutcome], filters: Sequence[str]) -> list[Metric]:
+    """The filters' per-run mean squared difference to the smoother's trajectory over
+    their epochs: position (m) and heading (deg); NaN for a filter the run did not score."""
+    return [Metric("position", "position vs the smoother", "m",
+                   {n: per_run(outcomes, n, _squared("pose_rmse_to_ref_m")) for n in filters}),
+            Metric("heading", "heading vs the smoother", "deg",
+                   {n: per_run(outcomes, n, _squared("heading_rmse_to_ref_deg"))
+                    for n in filters})]
+
+
 def summarize(world: RecordedWorld, outcomes: list[RunOutcome], filters: list[str],
               runs: int, seed: int) -> dict[str, Any]:
-    """The ``summary.json`` dict of a recorded-log run."""
+    """The ``summary.json`` dict of a recorded-log run, with the filters ranked by their
+    difference to the smoother (:func:`slam.decision.decide`; one run: the ranking orders
+    them but claims no significance, :data:`slam.ranking.ONE_RUN`)."""
     log = world.log
     out: dict[str, Any] = {
         "log": Path(log.source).name,
@@ -69,4 +96,9 @@ def summarize(world: RecordedWorld, outcomes: list[RunOutcome], filters: list[st
         out[group] = {n: s.values for n, s in scores.items() if s.group == group}
     out["kind"] = KIND
     out["world"] = world.name
+    fs = world.filters
+    out = decide(out, smoother_metrics(outcomes, filters), filters=filters, consistency=None,
+                 reference=None, settings={n: fs.settings_of(n) for n in filters},
+                 settings_text={n: fs.describe(n) for n in filters})
+    out["headline"] = f"{AGAINST_SMOOTHER} {out['headline']}"
     return out

@@ -52,6 +52,8 @@ def score_filter(result: SlamResult, ref: RecordedReference | None) -> dict[str,
     if ok.any():
         e = result.poses[ok, :2] - ref.poses[result.steps[ok], :2]
         out["pose_rmse_to_ref_m"] = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+        dh = np.degrees(wrap_angle(result.poses[ok, 2] - ref.poses[result.steps[ok], 2]))
+        out["heading_rmse_to_ref_deg"] = float(np.sqrt(np.mean(dh**2)))
     if result.time_s > 0:
         out["isam2_time_over_filter_time"] = ref.time_isam2_s / result.time_s
     return out

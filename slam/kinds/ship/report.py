@@ -23,7 +23,7 @@ from typing import Any
 
 from slam.kind import Deferred
 from slam.render import tables
-from slam.render.decision import decision_sections, decision_text
+from slam.render.decision import decision_sections, decision_text, delta_text
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
 
@@ -152,8 +152,7 @@ def _rank_cells(summary: dict[str, Any], key: str, name: str) -> list[str]:
         return [tables.MISSING, tables.MISSING]
     if row["verdict"] == "best":
         return [str(row["rank"]), "best"]
-    return [str(row["rank"]), f"{row['delta_mse']:+.3g} ± {row['delta_se']:.2g} "
-                              f"({row['verdict']})"]
+    return [str(row["rank"]), f"{delta_text(row)} ({row['verdict']})"]
 
 
 def ordering_rows(summary: dict[str, Any]) -> list[list[str]]:
