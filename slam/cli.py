@@ -251,9 +251,11 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "array axis; kinds without it run per run); per-run: one run per task, the "
                    "reference path. Both give the same numbers to round-off.")
 @click.option("--log", "log_file", metavar="FILE",
-              help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "
-                   "text format (ODOMETRY/LANDMARK lines, e.g. victoria_park.txt) instead of a "
-                   "world; the filters are scored against the smoother.")
+              help="Run the filters and the GTSAM smoother on a recorded log instead of a "
+                   "world: GTSAM's planar text format (ODOMETRY/LANDMARK lines, e.g. "
+                   "victoria_park.txt; scored against the smoother), or an attitude log in "
+                   "GTSAM's EqFdata.csv layout (`--log eqf`: the file the gtsam wheel ships; "
+                   "scored against its truth and the AHRS smoother).")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
             no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
@@ -354,16 +356,19 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
               mode: str | None):
     """``--log FILE``: the log as a one-run world of the recorded-log kind."""
     from slam.kinds.recorded.log import LogFormatError
-    from slam.registry import log_kind, open_log
+    from slam.logs import resolve_log
+    from slam.registry import open_log
     from worlds import WorldError
 
     for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
                        (workers, "--workers"), (scheduler, "--scheduler")):
         if given is not None:
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
-    kind = log_kind()
+    kind, path = resolve_log(log_file)
+    if mode is not None and not kind.modes:
+        raise InputError(f"--mode {mode}: a {kind.name} log has no filter modes")
     try:
-        w = open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None, mode)
+        w = open_log(path, _parse_filters(filters, (), kind.filters) or None, mode, kind)
     except (LogFormatError, WorldError) as exc:
         raise InputError(f"--log {exc}") from None
     return w, kind

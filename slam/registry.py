@@ -14,7 +14,17 @@ from typing import Any
 
 import worlds.schema as ws
 from slam.kind import Kind
-from slam.kinds import alignment, attitude, drone, fixed_wing, planar, recorded, ship, spinning
+from slam.kinds import (
+    alignment,
+    attitude,
+    attitude_log,
+    drone,
+    fixed_wing,
+    planar,
+    recorded,
+    ship,
+    spinning,
+)
 from worlds import limits
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
@@ -38,7 +48,7 @@ def register(kind: Kind) -> Kind:
 
 
 for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
-           alignment.KIND, fixed_wing.KIND):
+           alignment.KIND, fixed_wing.KIND, attitude_log.KIND):
     register(_k)
 
 
@@ -98,11 +108,12 @@ def check_work(world: Any, data: dict[str, Any] | None = None) -> None:
     limits.check_work(get_kind(world.kind).work(world), world.kind, error)
 
 
-def open_log(path: Path, filters: Any = None, mode: str | None = None) -> Any:
-    """A recorded log as a one-run world of the log kind (``slam run --log FILE``), its
-    work checked like a world's (raises the kind's ``LogFormatError`` or a
-    :class:`~worlds.schema.WorldError` naming the file)."""
-    world = log_kind().open_log(Path(path), filters, mode)
+def open_log(path: Path, filters: Any = None, mode: str | None = None,
+             kind: Kind | None = None) -> Any:
+    """A recorded log as a one-run world of ``kind`` (default: the planar log kind;
+    ``slam run --log FILE``), its work checked like a world's (raises the kind's
+    ``LogFormatError`` or a :class:`~worlds.schema.WorldError` naming the file)."""
+    world = (kind or log_kind()).open_log(Path(path), filters, mode)
     check_work(world)
     return world
 
