@@ -43,6 +43,7 @@ SENSOR = re.compile(r"^y_x_(\d{1,3})$")
 NORM_TOL = 1e-6  # |‖q‖ - 1| allowed for the truth and mounting quaternions
 MAX_SENSORS = 16
 MAX_GAP_S = 10.0  # the longest interval between two rows
+TINY = float(np.finfo(float).tiny)  # a σ whose square is below this underflows
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,9 +177,9 @@ def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
         raise _fail(src, _first_bad(~_unit(q, NORM_TOL)),
                     f"q_w..q_z: not a unit quaternion (|‖q‖ - 1| > {NORM_TOL:g})")
     noise = base[:, 11:17]
-    if np.any(noise <= 0):
-        raise _fail(src, _first_bad(np.any(noise <= 0, axis=1)),
-                    "std_w_* and std_b_* must be > 0")
+    if np.any(noise**2 < TINY):
+        raise _fail(src, _first_bad(np.any(noise**2 < TINY, axis=1)),
+                    "std_w_* and std_b_* must be > 0 (and their squares must not underflow)")
     if np.any(noise != noise[0]):
         raise _fail(src, _first_bad(np.any(noise != noise[0], axis=1)),
                     "std_w_* and std_b_* must be the same on every row (one gyro)")
@@ -204,10 +205,12 @@ def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
         if not np.all((n > 0.5) & (n < 1.5)):
             raise _fail(src, int(np.flatnonzero(has)[~((n > 0.5) & (n < 1.5))][0]) + 2,
                         f"y_*_{i}: a unit reading must have a length in (0.5, 1.5)")
-        ok_s = np.isfinite(s) & (s > 0) & (s <= 10.0)
+        with np.errstate(over="ignore"):
+            ok_s = np.isfinite(s) & (s**2 >= TINY) & (s <= 10.0)
         if not np.all(ok_s[has]):
             raise _fail(src, int(np.flatnonzero(has & ~ok_s.all(axis=1))[0]) + 2,
-                        f"std_y_*_{i}: must be in (0, 10] where sensor {i} reads")
+                        f"std_y_*_{i}: must be in (0, 10] (its square not underflowing) "
+                        f"where sensor {i} reads")
         if f"cq_w_{i}" in col:
             cq = take(*(f"cq_{a}_{i}" for a in WXYZ))
             good = np.all(np.isfinite(cq), axis=1) & _unit(np.nan_to_num(cq), NORM_TOL)
@@ -238,6 +241,7 @@ def read_attitude_log(path: str | os.PathLike) -> AttitudeRecord:
         raise LogFormatError(src, None, f"not UTF-8 text ({exc.reason})") from None
     except OSError as exc:
         raise LogFormatError(src, None, f"cannot read ({exc.strerror or exc})") from None
+    text = text.removeprefix("\ufeff")  # a byte-order mark
     if "\x00" in text:
         raise LogFormatError(src, None, "binary data (a NUL byte)")
     return parse_attitude_log(text, src)
@@ -250,6 +254,6 @@ def is_attitude_log(path: Path) -> bool:
             first = f.readline(4096)
     except (OSError, ValueError):
         return False
-    cols = {c.strip() for c in first.split(",")}
+    cols = {c.strip() for c in first.removeprefix("\ufeff").split(",")}
     return "t" in cols and "q_w" in cols and "w_x" in cols
 

@@ -92,6 +92,8 @@ BAD = [
     (lambda L: _set(L, 3, 21, "NaN"), ":4: y_*_0: all three given (finite) or all NaN"),
     (lambda L: [L[0]] + [",".join(r.split(",")[:15] + ["-1"] + r.split(",")[16:])
                          for r in L[1:]], "std_w_* and std_b_* must be > 0"),
+    (lambda L: [L[0]] + [",".join(r.split(",")[:15] + ["1e-300"] + r.split(",")[16:])
+                         for r in L[1:]], "their squares must not underflow"),
     (lambda L: [L[0].replace("d_x_1", "dx1")] + L[1:], "sensor 1: missing column(s) d_x_1"),
 ]
 
