@@ -177,8 +177,9 @@ def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
         raise _fail(src, _first_bad(~_unit(q, NORM_TOL)),
                     f"q_w..q_z: not a unit quaternion (|‖q‖ - 1| > {NORM_TOL:g})")
     noise = base[:, 11:17]
-    if np.any(noise**2 < TINY):
-        raise _fail(src, _first_bad(np.any(noise**2 < TINY, axis=1)),
+    small = (noise <= 0) | (noise**2 < TINY)
+    if np.any(small):
+        raise _fail(src, _first_bad(np.any(small, axis=1)),
                     "std_w_* and std_b_* must be > 0 (and their squares must not underflow)")
     if np.any(noise != noise[0]):
         raise _fail(src, _first_bad(np.any(noise != noise[0], axis=1)),
@@ -206,7 +207,7 @@ def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
             raise _fail(src, int(np.flatnonzero(has)[~((n > 0.5) & (n < 1.5))][0]) + 2,
                         f"y_*_{i}: a unit reading must have a length in (0.5, 1.5)")
         with np.errstate(over="ignore"):
-            ok_s = np.isfinite(s) & (s**2 >= TINY) & (s <= 10.0)
+            ok_s = np.isfinite(s) & (s > 0) & (s**2 >= TINY) & (s <= 10.0)
         if not np.all(ok_s[has]):
             raise _fail(src, int(np.flatnonzero(has & ~ok_s.all(axis=1))[0]) + 2,
                         f"std_y_*_{i}: must be in (0, 10] (its square not underflowing) "
