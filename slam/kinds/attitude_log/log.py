@@ -141,6 +141,11 @@ def _first_bad(mask: NDArray[np.bool_]) -> int:
 def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
     """Parse the CSV text (module docstring); raises :class:`LogFormatError` naming the
     file, the line and the rule."""
+    with np.errstate(over="ignore", invalid="ignore"):  # huge values are refused, not warned
+        return _parse(text, src)
+
+
+def _parse(text: str, src: str) -> AttitudeRecord:
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()
@@ -206,8 +211,7 @@ def parse_attitude_log(text: str, src: str) -> AttitudeRecord:
         if not np.all((n > 0.5) & (n < 1.5)):
             raise _fail(src, int(np.flatnonzero(has)[~((n > 0.5) & (n < 1.5))][0]) + 2,
                         f"y_*_{i}: a unit reading must have a length in (0.5, 1.5)")
-        with np.errstate(over="ignore"):
-            ok_s = np.isfinite(s) & (s > 0) & (s**2 >= TINY) & (s <= 10.0)
+        ok_s = np.isfinite(s) & (s > 0) & (s**2 >= TINY) & (s <= 10.0)
         if not np.all(ok_s[has]):
             raise _fail(src, int(np.flatnonzero(has & ~ok_s.all(axis=1))[0]) + 2,
                         f"std_y_*_{i}: must be in (0, 10] (its square not underflowing) "

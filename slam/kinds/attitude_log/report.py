@@ -22,9 +22,9 @@ def _row(name: str, e: dict[str, Any]) -> list[str]:
     nis = num(e.get("nis_per_dof"), ".2f")
     if nis != MISSING:
         nis = f"{nis} {interval(e.get('nis_bounds_95'), '.2f')}"
-    return [name, num(e.get("att_rms_deg"), ".3f"), num(e.get("att_rms_after_10s_deg"), ".3f"),
-            num(e.get("att_final_deg"), ".3f"), num(e.get("bias_rms_deg_s"), ".4f"),
-            num(e.get("att_rms_to_smoother_after_10s_deg"), ".3f"), anees_cell(e),
+    return [name, num(e.get("att_rmse_deg"), ".3f"), num(e.get("att_rmse_after_10s_deg"), ".3f"),
+            num(e.get("att_final_deg"), ".3f"), num(e.get("bias_rmse_deg_s"), ".4f"),
+            num(e.get("att_rmse_to_smoother_after_10s_deg"), ".3f"), anees_cell(e),
             e.get("consistency", MISSING), nis, num(e.get("cpu_s"), ".2f"), "no"]
 
 

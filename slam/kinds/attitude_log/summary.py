@@ -33,18 +33,18 @@ def entry(s: AttitudeLogScores, t: np.ndarray, settings: str | None = None) -> d
     out["runs_scored"] = 1
     steady = t >= t[0] + STEADY_FROM_S
     att, bias = s.err[:, :3], s.err[:, 3:]
-    out["att_rms_deg"] = _rms_deg(att)
-    out["att_rms_after_10s_deg"] = _rms_deg(att[steady])
+    out["att_rmse_deg"] = _rms_deg(att)
+    out["att_rmse_after_10s_deg"] = _rms_deg(att[steady])
     why = f"the log ends before t = {STEADY_FROM_S:g} s" if not steady.any() else None
     if why:
-        out["att_rms_after_10s_deg_reason"] = why
+        out["att_rmse_after_10s_deg_reason"] = why
     out["att_final_deg"] = float(np.linalg.norm(att[-1]) / DEG)
-    out["bias_rms_deg_s"] = float(np.sqrt(np.mean(np.sum(bias**2, axis=1))) / DEG)
+    out["bias_rmse_deg_s"] = float(np.sqrt(np.mean(np.sum(bias**2, axis=1))) / DEG)
     if np.isfinite(s.err_to_ref).any():
-        out["att_rms_to_smoother_deg"] = _rms_deg(s.err_to_ref)
-        out["att_rms_to_smoother_after_10s_deg"] = _rms_deg(s.err_to_ref[steady])
+        out["att_rmse_to_smoother_deg"] = _rms_deg(s.err_to_ref)
+        out["att_rmse_to_smoother_after_10s_deg"] = _rms_deg(s.err_to_ref[steady])
         if why:
-            out["att_rms_to_smoother_after_10s_deg_reason"] = why
+            out["att_rmse_to_smoother_after_10s_deg_reason"] = why
     out.update(anees_entries(s.nees[None], 6, full=True))
     if "anees" in out:
         out["consistency"] = verdict(out) or "no NEES"

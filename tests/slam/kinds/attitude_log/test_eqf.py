@@ -54,12 +54,12 @@ def test_slam_run_on_an_eqf_log(short, tmp_path):
     assert (s["kind"], s["rows"], s["sensors"]) == ("recorded-attitude", ROWS, 2)
     ekf, srckf, ref = s["filters"]["ekf"], s["filters"]["srckf"], s["reference"]["gtsam"]
     for e in (ekf, srckf, ref):
-        assert not e["diverged"] and 0.0 < e["att_rms_deg"] < 5.0, e
+        assert not e["diverged"] and 0.0 < e["att_rmse_deg"] < 5.0, e
         assert e["anees_bounds_95"][0] < 1.0 < e["anees_bounds_95"][1]
     # the MEKF and the SRCKF agree closely on this nearly linear problem
-    assert abs(ekf["att_rms_after_10s_deg"] - srckf["att_rms_after_10s_deg"]) < 0.05
+    assert abs(ekf["att_rmse_after_10s_deg"] - srckf["att_rmse_after_10s_deg"]) < 0.05
     assert abs(ekf["att_final_deg"] - srckf["att_final_deg"]) < 0.05
-    assert srckf["att_rms_to_smoother_after_10s_deg"] < 1.0  # 0.56 measured
+    assert srckf["att_rmse_to_smoother_after_10s_deg"] < 1.0  # 0.56 measured
     assert srckf["settings"] == "none" and srckf["nis_updates"] > 800
     assert unexplained_nulls(s) == []
     md = (out / "report.md").read_text(encoding="utf-8")
