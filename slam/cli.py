@@ -389,6 +389,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         raise InputError(f"--out {exc}") from None
     try:
         result, elapsed = _campaign(w, campaign, workers, scheduler)
+        result.summary["per_run"] = _per_run(w, result, campaign)
         result.summary["provenance"] = provenance(
             source=getattr(w, "source", None), seed=campaign["seed"], runs=campaign["runs"],
             workers=workers, scheduler=scheduler, wall_time_s=elapsed)
@@ -408,6 +409,13 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
     if staging.previous is not None and staging.previous != campaign:
         click.echo(f"note: replaced the earlier results in {out}/ "
                    f"({describe_campaign(staging.previous)})")
+
+
+def _per_run(w, result, campaign: dict[str, Any]) -> dict[str, Any]:
+    """Every estimator's metrics on each run alone (:mod:`slam.per_run`)."""
+    from slam.per_run import per_run
+
+    return per_run(w, result.outcomes, campaign["filters"], campaign["seed"])
 
 
 def _render(staging, result, report, plots: bool) -> None:
