@@ -5,11 +5,12 @@ against their bands)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-from slam.render.document import KindReport, Section
+from slam.render.document import KindReport, Link, Section
 from slam.render.tables import MISSING, anees_cell, interval, num, plain_table
-from slam.results import REFERENCE
+from slam.results import REFERENCE, CampaignResult
 
 HEADER = ("estimator", "att RMS (deg)", "after 10 s (deg)", "final (deg)", "bias RMS (deg/s)",
           "vs smoother after 10 s (deg)", "ANEES [95 % band]", "verdict", "NIS/dof [band]",
@@ -82,5 +83,31 @@ def figures() -> dict[str, tuple[Any, str]]:
                                                                      lambda s: s.nees)]))])
 
 
+def _quats(o, name: str):
+    return o.truth[:, :4] if name == "truth" else o.tracks[name].quats
+
+
+def _covs(o, name: str):
+    return None if name == "truth" else o.tracks[name].cov
+
+
+def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
+    """TUM files (zero position) and attitude covariance sidecars (:mod:`slam.render.tum`):
+    the poses at the filter epochs (the first row, every row with a reading, the last)."""
+    from slam.render import tum
+
+    names = list(result.outcomes[0].tracks)
+    return tum.write_all(result, out_dir, names, tum.attitude_track(_quats, _covs),
+                         tum.ATTITUDE_NOTE + "; poses at the filter epochs (the first row, "
+                         "every row with a direction reading, the last row)", tum.ATTITUDE_COV)
+
+
+def tum_links(result: CampaignResult) -> list[Link]:
+    from slam.render import tum
+
+    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+
+
 REPORT = KindReport(what="recorded attitude log", sections=sections, figures=figures,
-                    text_table=lambda s: plain_table(HEADER, rows(s)))
+                    text_table=lambda s: plain_table(HEADER, rows(s)),
+                    extra_files=write_tum_files, links=tum_links)
