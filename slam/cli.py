@@ -256,16 +256,22 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "victoria_park.txt; scored against the smoother), or an attitude log in "
                    "GTSAM's EqFdata.csv layout (`--log eqf`: the file the gtsam wheel ships; "
                    "scored against its truth and the AHRS smoother).")
+@click.option("--tum", "tum", type=click.Choice(("run0", "all")), default="run0",
+              show_default=True,
+              help="TUM trajectory files (and covariance sidecars) of run 0, or of every run "
+                   "(all: <name>.run<r>.tum; the runs keep their tracks and take the per-run "
+                   "path).")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
+            no_plots: bool, mode: str | None, executor: str, log_file: str | None,
+            tum: str) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor)
+                 caught, executor, tum == "all")
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -273,7 +279,7 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
-         executor: str = "batched") -> None:
+         executor: str = "batched", tum_all: bool = False) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
@@ -302,6 +308,8 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
     campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
                 "seed": w.seed if seed is None else seed, "mode": world_mode,
                 "filters": names, "executor": executor}
+    if tum_all:
+        campaign["tum"] = "all"
     if out is None:
         own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
                "filters": None if log_file is not None and filters else list(w.filters.names)}
@@ -466,6 +474,7 @@ def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
             result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
                                   seed=campaign["seed"], workers=workers, mapper=mapper,
                                   executor=campaign.get("executor", "batched"),
+                                  keep_all=campaign.get("tum") == "all",
                                   progress=bar.update, epochs=None if bar.disable else epochs)
     finally:
         if client is not None:
