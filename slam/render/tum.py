@@ -38,8 +38,9 @@ def tracked(result: CampaignResult) -> list[RunOutcome]:
 def header(result: CampaignResult, run: int, name: str, note: str, poses: int) -> str:
     """The comment lines of a TUM file."""
     s = result.summary
-    return (f"{s.get('world', '')}: {name}, run {run} of {s.get('runs', len(result.outcomes))} "
-            f"(seed {s.get('seed', '?')}); {note}\n"
+    seed = f" (seed {s['seed']})" if "seed" in s else ""
+    return (f"{s.get('world', '')}: {name}, run {run} of {s.get('runs', len(result.outcomes))}"
+            f"{seed}; {note}\n"
             f"{poses} poses; t: seconds from the start of the run; "
             "columns t x y z qx qy qz qw")
 
@@ -54,7 +55,7 @@ def rows(times: Array, p: Array, q_wxyz: Array) -> tuple[Array, Array]:
 
 def cov_text(times: Array, cov: Array, head: str) -> str:
     """The sidecar: ``t`` and the row-major covariance per line (NaN where none)."""
-    flat = cov.reshape(len(cov), -1)
+    flat = cov.reshape(cov.shape[0], int(np.prod(cov.shape[1:])))  # 0 poses: 0 rows
     return "".join(f"# {line}\n" for line in head.splitlines()) + "".join(
         f"{t:.6f} " + " ".join(f"{v:.9g}" for v in c) + "\n" for t, c in zip(times, flat))
 
