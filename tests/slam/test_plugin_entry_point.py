@@ -71,3 +71,22 @@ def test_slam_run_runs_the_plugins_world(plugin_venv, tmp_path):
     res = _slam(plugin_venv, "run", str(bad), "--out", "out2", cwd=tmp_path)
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
     assert "[sensor] sigma_pos_m = -1.0: must be in (0, 1000]" in res.stderr
+
+
+def test_a_broken_plugin_is_skipped_with_one_warning_line(monkeypatch, capsys):
+    import importlib.metadata as md
+
+    from slam import registry
+
+    eps = [md.EntryPoint("gone", "no_such_module_here:KIND", registry.PLUGIN_KINDS),
+           md.EntryPoint("notkind", "math:pi", registry.PLUGIN_KINDS)]
+    monkeypatch.setattr(md, "entry_points", lambda group: eps if group ==
+                        registry.PLUGIN_KINDS else [])
+    before = dict(registry.KINDS)
+    assert registry.load_plugins() == []
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["warning: plug-in kind gone (no_such_module_here:KIND) not loaded: "
+                   "ModuleNotFoundError: No module named 'no_such_module_here'",
+                   "warning: plug-in kind notkind (math:pi) not loaded: TypeError: math:pi is "
+                   "a float, not a slam.kind.Kind"]
+    assert registry.KINDS == before
