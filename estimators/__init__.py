@@ -1,5 +1,6 @@
 """Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
 
+from .consistency import anees_band, anees_stats, chi2_band, nees, nis, nis_stats
 from .filters import (
     FILTER_NAMES,
     ROBUST_FILTER_NAMES,
@@ -33,5 +34,5 @@ __all__ = [
     "Transition", "CentralDifference", "Cubature", "Unscented", "Angle", "Euclidean",
     "Product", "Space", "Wrapped", "wrap_angle", "PARTITIONED_FILTERS", "BlockLayout",
     "NoPartitionedModeError", "NonFiniteError", "NoiseError", "SETTINGS", "describe_settings",
-    "settings_for",
+    "settings_for", "nees", "nis", "chi2_band", "anees_band", "anees_stats", "nis_stats",
 ]

@@ -179,9 +179,12 @@ def dask_mapper(address: str):
     return mapper, client
 
 
-def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int) -> list[tuple]:
-    """The task arguments of a campaign (run 0 keeps full tracks for the plots)."""
-    return [(world, i, s, list(filters), i == 0) for i, s in enumerate(run_seeds(seed, runs))]
+def campaign_tasks(world, filters: Sequence[str], runs: int, seed: int,
+                   keep_all: bool = False) -> list[tuple]:
+    """The task arguments of a campaign (run 0 keeps full tracks for the plots; every run
+    with ``keep_all``)."""
+    return [(world, i, s, list(filters), keep_all or i == 0)
+            for i, s in enumerate(run_seeds(seed, runs))]
 
 
 def batch_tasks(world, filters: Sequence[str], runs: int, seed: int,
@@ -210,7 +213,7 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
                  mapper: Callable[[Callable, Iterable], Iterable] | None = None,
                  progress: Callable[[int], None] | None = None,
                  epochs: Callable[[int], None] | None = None, executor: str = "batched",
-                 batch: int | None = None) -> CampaignResult:
+                 batch: int | None = None, keep_all: bool = False) -> CampaignResult:
     """Run a Monte Carlo campaign on ``world``.
 
     Parameters
@@ -226,6 +229,8 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     executor : ``"batched"`` (chunks of ``batch`` runs through the filters at once, where
         the kind has a batched path; the default) or ``"per-run"`` (:data:`EXECUTORS`).
         Both give the same summary to round-off (``tests/slam/test_batch_campaign.py``).
+    keep_all : every run keeps its full tracks (``slam run --tum all``), not only run 0;
+        the runs go the per-run path.
     """
     if world.kind not in KINDS:
         raise ValueError(f"no scenario kind {world.kind!r} is registered")
@@ -234,12 +239,13 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
     seed = int(world.seed if seed is None else seed)
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose from {', '.join(EXECUTORS)}")
-    batched = executor == "batched" and KINDS[world.kind].run_batch is not None
+    batched = (executor == "batched" and KINDS[world.kind].run_batch is not None
+               and not keep_all)
     if batched:
         fn: Callable = run_task_batch
         tasks = batch_tasks(world, filters, runs, seed, batch)
     else:
-        fn, tasks = run_task, campaign_tasks(world, filters, runs, seed)
+        fn, tasks = run_task, campaign_tasks(world, filters, runs, seed, keep_all)
     outcomes: list[RunOutcome] = []
     pool = None
     counter = multiprocessing.Value("q", 0) if epochs is not None and mapper is None else None

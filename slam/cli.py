@@ -251,19 +251,27 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "array axis; kinds without it run per run); per-run: one run per task, the "
                    "reference path. Both give the same numbers to round-off.")
 @click.option("--log", "log_file", metavar="FILE",
-              help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "
-                   "text format (ODOMETRY/LANDMARK lines, e.g. victoria_park.txt) instead of a "
-                   "world; the filters are scored against the smoother.")
+              help="Run the filters and the GTSAM smoother on a recorded log instead of a "
+                   "world: GTSAM's planar text format (ODOMETRY/LANDMARK lines, e.g. "
+                   "victoria_park.txt; scored against the smoother), or an attitude log in "
+                   "GTSAM's EqFdata.csv layout (`--log eqf`: the file the gtsam wheel ships; "
+                   "scored against its truth and the AHRS smoother).")
+@click.option("--tum", "tum", type=click.Choice(("run0", "all")), default="run0",
+              show_default=True,
+              help="TUM trajectory files (and covariance sidecars) of run 0, or of every run "
+                   "(all: <name>.run<r>.tum; the runs keep their tracks and take the per-run "
+                   "path).")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
+            no_plots: bool, mode: str | None, executor: str, log_file: str | None,
+            tum: str) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor)
+                 caught, executor, tum == "all")
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -271,7 +279,7 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
-         executor: str = "batched") -> None:
+         executor: str = "batched", tum_all: bool = False) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
@@ -300,6 +308,8 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
     campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
                 "seed": w.seed if seed is None else seed, "mode": world_mode,
                 "filters": names, "executor": executor}
+    if tum_all:
+        campaign["tum"] = "all"
     if out is None:
         own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
                "filters": None if log_file is not None and filters else list(w.filters.names)}
@@ -354,16 +364,19 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
               mode: str | None):
     """``--log FILE``: the log as a one-run world of the recorded-log kind."""
     from slam.kinds.recorded.log import LogFormatError
-    from slam.registry import log_kind, open_log
+    from slam.logs import resolve_log
+    from slam.registry import open_log
     from worlds import WorldError
 
     for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
                        (workers, "--workers"), (scheduler, "--scheduler")):
         if given is not None:
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
-    kind = log_kind()
+    kind, path = resolve_log(log_file)
+    if mode is not None and not kind.modes:
+        raise InputError(f"--mode {mode}: a {kind.name} log has no filter modes")
     try:
-        w = open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None, mode)
+        w = open_log(path, _parse_filters(filters, (), kind.filters) or None, mode, kind)
     except (LogFormatError, WorldError) as exc:
         raise InputError(f"--log {exc}") from None
     return w, kind
@@ -384,6 +397,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         raise InputError(f"--out {exc}") from None
     try:
         result, elapsed = _campaign(w, campaign, workers, scheduler)
+        result.summary["per_run"] = _per_run(w, result, campaign)
         result.summary["provenance"] = provenance(
             source=getattr(w, "source", None), seed=campaign["seed"], runs=campaign["runs"],
             workers=workers, scheduler=scheduler, wall_time_s=elapsed)
@@ -403,6 +417,13 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
     if staging.previous is not None and staging.previous != campaign:
         click.echo(f"note: replaced the earlier results in {out}/ "
                    f"({describe_campaign(staging.previous)})")
+
+
+def _per_run(w, result, campaign: dict[str, Any]) -> dict[str, Any]:
+    """Every estimator's metrics on each run alone (:mod:`slam.per_run`)."""
+    from slam.per_run import per_run
+
+    return per_run(w, result.outcomes, campaign["filters"], campaign["seed"])
 
 
 def _render(staging, result, report, plots: bool) -> None:
@@ -453,6 +474,7 @@ def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
             result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
                                   seed=campaign["seed"], workers=workers, mapper=mapper,
                                   executor=campaign.get("executor", "batched"),
+                                  keep_all=campaign.get("tum") == "all",
                                   progress=bar.update, epochs=None if bar.disable else epochs)
     finally:
         if client is not None:

@@ -14,7 +14,17 @@ from typing import Any
 
 import worlds.schema as ws
 from slam.kind import Kind
-from slam.kinds import alignment, attitude, drone, fixed_wing, planar, recorded, ship, spinning
+from slam.kinds import (
+    alignment,
+    attitude,
+    attitude_log,
+    drone,
+    fixed_wing,
+    planar,
+    recorded,
+    ship,
+    spinning,
+)
 from worlds import limits
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
@@ -38,8 +48,37 @@ def register(kind: Kind) -> Kind:
 
 
 for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
-           alignment.KIND, fixed_wing.KIND):
+           alignment.KIND, fixed_wing.KIND, attitude_log.KIND):
     register(_k)
+
+PLUGIN_KINDS = "navfilters.kinds"
+"""The entry-point group of installed packages' kinds: each names a :class:`Kind`."""
+
+
+def load_plugins() -> list[str]:
+    """Register every installed plug-in kind (:data:`PLUGIN_KINDS`); one that fails to
+    import, is not a Kind or reuses a registered name is skipped with a one-line warning
+    on stderr (a broken plug-in never stops ``slam``).  -> the names registered."""
+    import sys
+    from importlib.metadata import entry_points
+
+    done = []
+    for ep in sorted(entry_points(group=PLUGIN_KINDS), key=lambda e: e.name):
+        try:
+            kind = ep.load()
+            if not isinstance(kind, Kind):
+                raise TypeError(f"{ep.value} is a {type(kind).__name__}, not a slam.kind.Kind")
+            if kind.name in KINDS:
+                raise ValueError(f"kind {kind.name!r} is already registered")
+            register(kind)
+            done.append(kind.name)
+        except Exception as exc:  # noqa: BLE001  (any fault of someone else's package)
+            print(f"warning: plug-in kind {ep.name} ({ep.value}) not loaded: "
+                  f"{type(exc).__name__}: {exc}", file=sys.stderr)
+    return done
+
+
+load_plugins()
 
 
 def get_kind(name: str) -> Kind:
@@ -98,11 +137,12 @@ def check_work(world: Any, data: dict[str, Any] | None = None) -> None:
     limits.check_work(get_kind(world.kind).work(world), world.kind, error)
 
 
-def open_log(path: Path, filters: Any = None, mode: str | None = None) -> Any:
-    """A recorded log as a one-run world of the log kind (``slam run --log FILE``), its
-    work checked like a world's (raises the kind's ``LogFormatError`` or a
-    :class:`~worlds.schema.WorldError` naming the file)."""
-    world = log_kind().open_log(Path(path), filters, mode)
+def open_log(path: Path, filters: Any = None, mode: str | None = None,
+             kind: Kind | None = None) -> Any:
+    """A recorded log as a one-run world of ``kind`` (default: the planar log kind;
+    ``slam run --log FILE``), its work checked like a world's (raises the kind's
+    ``LogFormatError`` or a :class:`~worlds.schema.WorldError` naming the file)."""
+    world = (kind or log_kind()).open_log(Path(path), filters, mode)
     check_work(world)
     return world
 
@@ -121,9 +161,10 @@ def load_world(name_or_path: str | os.PathLike[str]) -> Any:
 
 
 def list_worlds() -> list[tuple[str, str, str]]:
-    """The bundled worlds as ``(name, kind, one-line description)``, sorted by name.
+    """The bundled worlds and the installed plug-ins' as ``(name, kind, one-line
+    description)``, sorted by name.
 
     Only ``kind`` and ``description`` are read here; :func:`load_world` does the full check.
     """
     return [(d.name, str(d.data.get("kind", "?")), str(d.data.get("description", "")))
-            for d in bundled_documents()]
+            for d in bundled_documents(plugins=True)]

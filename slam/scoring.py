@@ -4,7 +4,8 @@ For :math:`R` runs of a 3-dof vehicle pose the normalised estimation error squar
 :math:`\epsilon_k = e_k^\top P_k^{-1} e_k` averaged over runs and divided by the
 dimension is, for a consistent filter, :math:`\chi^2_{3R}/(3R)` distributed at each
 step (Bar-Shalom, Li & Kirubarajan 2001, §5.4); ``anees`` is its time average, and
-``anees_bounds_95`` the per-step two-sided 95 % band.
+``anees_bounds_95`` the per-step two-sided 95 % band.  The NEES, NIS and χ² bands
+themselves are the library's (:mod:`estimators.consistency`), re-exported here.
 """
 
 from __future__ import annotations
@@ -13,11 +14,17 @@ from collections.abc import Sequence
 from typing import Any, Protocol, TypeVar
 
 import numpy as np
-from scipy.special import gammaincinv
 
+from estimators.consistency import (  # noqa: F401  (the kinds' and tests' import path)
+    COND_LIMIT,
+    anees_band,
+    anees_stats,
+    chi2_ppf,
+    nees_series,
+    nis_stats,
+    per_epoch_anees,
+)
 from slam.results import Array
-
-COND_LIMIT = 1e12  # covariances more ill-conditioned than this get no NEES
 
 
 class Ended(Protocol):
@@ -44,59 +51,6 @@ def pad_stack(arrays: Sequence[Array], length: int | None = None) -> Array:
     for i, a in enumerate(arrays):
         out[i, :min(len(a), E)] = a[:E]
     return out
-
-
-def nees_series(err: Array, cov: Array) -> Array:
-    """NEES per step; NaN where ``cov`` is absent, non-finite or near-singular."""
-    out = np.full(err.shape[0], np.nan)
-    ok = np.all(np.isfinite(cov), axis=(1, 2)) & np.all(np.isfinite(err), axis=1)
-    if ok.any():
-        c = cov[ok]
-        w = np.linalg.eigvalsh(c)
-        good = w[:, 0] > w[:, -1] / COND_LIMIT
-        idx = np.flatnonzero(ok)[good]
-        e = err[idx]
-        out[idx] = np.einsum("ki,ki->k", e, np.linalg.solve(cov[idx], e[..., None])[..., 0])
-    return out
-
-
-def chi2_ppf(q: Array | float, dof: Array | float) -> Array:
-    r"""The χ² quantile, :math:`2\,P^{-1}(\nu/2, q)` (regularised incomplete gamma): what
-    ``scipy.stats.chi2.ppf`` evaluates, without importing ``scipy.stats`` (a second of
-    start-up for every command)."""
-    return 2.0 * gammaincinv(np.asarray(dof, dtype=float) / 2.0, q)
-
-
-def anees_band(runs: int, dof: int = 3, level: float = 0.95) -> tuple[float, float]:
-    """Two-sided band of the run-averaged NEES divided by ``dof``."""
-    a = (1.0 - level) / 2.0
-    n = runs * dof
-    return float(chi2_ppf(a, n) / n), float(chi2_ppf(1.0 - a, n) / n)
-
-
-def per_epoch_anees(nees: Array, dof: int) -> Array:
-    """Run-averaged NEES per epoch divided by ``dof`` from per-run series ``nees`` (R, E);
-    NaN at epochs where no run has a NEES."""
-    finite = np.isfinite(nees)
-    count = finite.sum(axis=0)
-    return np.where(count > 0, np.where(finite, nees, 0.0).sum(axis=0)
-                    / np.maximum(count, 1), np.nan) / dof
-
-
-def anees_stats(nees: Array, dof: int) -> dict[str, Any]:
-    """ANEES of per-run NEES series ``nees`` (R, E) with its two-sided 95 % band, the
-    fractions of epochs whose run-averaged NEES / dof lies inside the band and above it,
-    and the distance of the ANEES to the band (0 inside); ``{}`` when there is no NEES."""
-    per_step = per_epoch_anees(nees, dof)
-    valid = per_step[np.isfinite(per_step)]
-    if not valid.size:
-        return {}
-    lo, hi = anees_band(nees.shape[0], dof)
-    value = float(valid.mean())
-    distance = 0.0 if lo <= value <= hi else float(min(abs(value - lo), abs(value - hi)))
-    return {"value": value, "band": [lo, hi],
-            "inside": float(np.mean((valid >= lo) & (valid <= hi))),
-            "above": float(np.mean(valid > hi)), "distance": distance}
 
 
 def track_frame(err_xy: Array, cov_xy: Array, heading: Array) -> tuple[Array, Array]:

@@ -8,10 +8,12 @@ only locates the file and parses its TOML.
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import tomllib
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from importlib.resources import files
 from importlib.resources.abc import Traversable
 from pathlib import Path
@@ -48,6 +50,36 @@ def _package() -> Traversable:
 def bundled_names() -> list[str]:
     """The bundled worlds' names (file stems), sorted."""
     return sorted(p.name[:-5] for p in _package().iterdir() if p.name.endswith(".toml"))
+
+
+PLUGIN_WORLDS = "navfilters.worlds"
+"""The entry-point group of installed packages' world folders: each entry point names a
+package whose ``*.toml`` files are worlds (a name the bundled worlds already use is
+skipped)."""
+
+
+@functools.cache
+def plugin_worlds() -> dict[str, Traversable]:
+    """The installed plug-ins' worlds by name (:data:`PLUGIN_WORLDS`); a folder that cannot
+    be read is skipped."""
+    bundled = set(bundled_names())
+    out: dict[str, Traversable] = {}
+    for ep in sorted(entry_points(group=PLUGIN_WORLDS), key=lambda e: e.name):
+        try:
+            folder = files(ep.value)
+            found = sorted((p.name[:-5], p) for p in folder.iterdir()
+                           if p.name.endswith(".toml"))
+        except (ImportError, OSError, TypeError, ValueError):
+            continue
+        for name, p in found:
+            if name not in bundled:
+                out.setdefault(name, p)
+    return out
+
+
+def world_names() -> list[str]:
+    """The bundled worlds' and the installed plug-ins' world names, sorted."""
+    return sorted({*bundled_names(), *plugin_worlds()})
 
 
 def check_key_parts(text: str, source: str) -> None:
@@ -115,7 +147,10 @@ def _locate(name_or_path: str | os.PathLike[str]) -> tuple[str, str, Traversable
         return path.stem, text, path
     candidate = _package() / f"{text}.toml"
     if not candidate.is_file():
-        known = ", ".join(bundled_names())
+        plugin = plugin_worlds().get(text)
+        if plugin is not None:
+            return text, f"{text}.toml (plug-in)", plugin
+        known = ", ".join(world_names())
         raise WorldError(text, None, f"no bundled world of that name (bundled: {known})")
     return text, f"worlds/{text}.toml", candidate
 
@@ -127,10 +162,12 @@ def read_world(name_or_path: str | os.PathLike[str]) -> WorldDocument:
         raw = file.read_bytes()
     except OSError as exc:
         raise WorldError(source, None, f"cannot read: {exc}") from None
-    base = file.parent if isinstance(file, Path) else _package()
+    base = (file.parent if isinstance(file, Path) else
+            _package() if name not in plugin_worlds() else plugin_worlds()[name].parent)
     return WorldDocument(parse_toml(raw, source), name, source, base)
 
 
-def bundled_documents() -> list[WorldDocument]:
-    """Every bundled world's document, sorted by name."""
-    return [read_world(name) for name in bundled_names()]
+def bundled_documents(plugins: bool = False) -> list[WorldDocument]:
+    """Every bundled world's document (with ``plugins`` the installed plug-ins' too),
+    sorted by name."""
+    return [read_world(name) for name in (world_names() if plugins else bundled_names())]

@@ -26,8 +26,8 @@ def _title(summary: dict[str, Any], world: Any, what: str) -> tuple[str, str, st
     name = summary.get("world", getattr(world, "name", "?"))
     description = getattr(world, "description", "")
     runs = summary.get("runs")
-    facts = ("" if runs is None else
-             f"{runs} Monte Carlo run{'' if runs == 1 else 's'}, seed {summary.get('seed', '?')}, ")
+    seed = f", seed {summary['seed']}" if "seed" in summary else ""
+    facts = ("" if runs is None else f"{runs} Monte Carlo run{'' if runs == 1 else 's'}{seed}, ")
     facts += f"world kind `{summary.get('kind', getattr(world, 'kind', '?'))}`"
     return f"{name}: {what}", description, facts
 

@@ -31,11 +31,13 @@ def test_the_built_in_kinds_are_registered() -> None:
         assert isinstance(kind, Kind) and kind.name == name and get_kind(name) is kind
     with pytest.raises(KeyError):
         get_kind("submarine")
-    # exactly one kind reads recorded logs, and it refuses world files
+    # the log kinds (planar logs, the default; attitude logs) refuse world files
     readers = [k for k in KINDS.values() if k.open_log is not None]
-    assert readers == [log_kind()]
-    with pytest.raises(WorldError, match="--log"):
-        world_from_dict({"kind": log_kind().name}, name="x")
+    assert readers[0] is log_kind() and log_kind().name == "recorded-log"
+    assert [k.name for k in readers] == ["recorded-log", "recorded-attitude"]
+    for reader in readers:
+        with pytest.raises(WorldError, match="--log"):
+            world_from_dict({"kind": reader.name}, name="x")
 
 
 def test_only_drawing_a_figure_imports_matplotlib() -> None:

@@ -29,7 +29,8 @@ FIGURES = {
     "recorded-log": ["trajectories.png", "aligned_map.png", "pose_diff.png", "map_state.png"],
 }
 EXTRA = {"planar-slam": {"truth.tum", "srckf.tum"}, "drone-slam": {"scene.glb", "truth.tum"},
-         "attitude": set(), "recorded-log": {"gtsam.tum", "srckf.tum", "odometry.tum"}}
+         "attitude": {"truth.tum", "srckf.tum", "srckf.cov.txt"},
+         "recorded-log": {"gtsam.tum", "srckf.tum", "odometry.tum"}}
 PROVENANCE_KEYS = {"package", "version", "git_commit", "git_dirty", "command", "world_file",
                    "world_sha256", "seed", "runs", "started_utc", "wall_time_s", "workers",
                    "scheduler", "python", "libraries"}

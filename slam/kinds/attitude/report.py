@@ -9,12 +9,13 @@ compact terminal table.  The figures are in :mod:`slam.kinds.attitude.figures`;
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from slam.kind import Deferred
 from slam.kinds.attitude.run import AXES
 from slam.render.decision import decision_sections, decision_text, ordering_section
-from slam.render.document import KindReport, Section
+from slam.render.document import KindReport, Link, Section
 from slam.render.tables import (
     MISSING,
     anees_cell,
@@ -29,7 +30,7 @@ from slam.render.tables import (
     verdict,
     wrap,
 )
-from slam.results import REFERENCE
+from slam.results import REFERENCE, CampaignResult
 
 _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
@@ -241,6 +242,32 @@ def attitude_sections(summary: dict[str, Any]) -> list[Section]:
     return out
 
 
+def _quats(o, name: str):
+    return o.truth[:, :4] if name == "truth" else o.tracks[name].quats
+
+
+def _covs(o, name: str):
+    return None if name == "truth" else o.tracks[name].cov
+
+
+def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
+    """TUM files (zero position) and attitude covariance sidecars of the tracked runs
+    (:mod:`slam.render.tum`): the poses at the star-sensor epochs."""
+    from slam.render import tum
+
+    names = list(result.outcomes[0].tracks)
+    return tum.write_all(result, out_dir, names, tum.attitude_track(_quats, _covs),
+                         tum.ATTITUDE_NOTE + "; poses at the star-sensor epochs",
+                         tum.ATTITUDE_COV)
+
+
+def tum_links(result: CampaignResult) -> list[Link]:
+    from slam.render import tum
+
+    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+
+
 REPORT = KindReport("star-sensor attitude campaign", attitude_sections,
-                    Deferred("slam.kinds.attitude.figures:figures"), text_table)
+                    Deferred("slam.kinds.attitude.figures:figures"), text_table,
+                    write_tum_files, tum_links)
 """The attitude kind's report."""

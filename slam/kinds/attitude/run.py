@@ -334,7 +334,7 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
                 REFERENCE, np.full((M, 7), np.nan), np.full((M, 6, 6), np.nan), M - 1,
                 nis=np.full(M, np.nan), nis_dof=0, time_s=0.0, diverged=True, failure=failure))
         scores = {s.name: score_series(s, log, div) for s in series[i]}
-        keep = keep_first and run == 0
+        keep = keep_first and (run == 0 or not batched)  # run_once: as asked
         tracks = ({s.name: AttitudeTrack(s.name, s.means[:, :4], s.means[:, 4:], s.covs)
                    for s in series[i]} if keep else {})
         truth = np.hstack([log.star_truth_q, log.star_truth_bias]) if keep else None

@@ -35,7 +35,6 @@ from slam.kind import Deferred
 from slam.kinds.drone.scene import write_scene_glb, write_tum_3d
 from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
-from slam.render.output import tum_names
 from slam.render.tables import (
     DIVERGED,
     ESTIMATOR,
@@ -212,9 +211,10 @@ def drone_links(result: CampaignResult) -> list[Link]:
     first = result.outcomes[0] if result.outcomes else None
     if first is None or not first.tracks:
         return []
+    from slam.render import tum
+
     return [("scene.glb", "run 0 in 3-D (glTF binary: terrain, landmarks, paths)"),
-            *((f"{n}.tum", f"run 0's {'true' if n == 'truth' else n} trajectory (TUM: t x y "
-               "z qx qy qz qw)") for n in tum_names(result))]
+            *tum.links(result, list(first.tracks), "trajectory")]
 
 
 REPORT = KindReport("quaternion SINS/SLAM campaign", drone_sections,

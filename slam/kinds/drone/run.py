@@ -108,7 +108,7 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
             ref, failure = run_reference(smooth_drone, log, imu_noise_scale=fs.imu_noise_scale,
                                          sensor_noise_scale=fs.sensor_noise_scale)
             ests[i].append(ref if ref is not None else failed_reference(log, failure or ""))
-        keep = keep_first and run == 0
+        keep = keep_first and (run == 0 or not batched)  # run_once: as asked
         scores = {e.name: score(e, log) for e in ests[i]}
         tracks = {e.name: track_of(e) for e in ests[i]} if keep else {}
         outcomes.append(RunOutcome(run, scores, tracks,  # type: ignore[arg-type]

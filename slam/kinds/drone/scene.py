@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slam.render.output import tum_header, tum_names, tum_text, write_tum
+from slam.render.output import tum_text
 from slam.render.palette import EIGHT_COLOURS, estimator_colours, filter_names, run0
 from slam.results import REFERENCE, CampaignResult
 
@@ -115,15 +115,20 @@ def tum_text_3d(times: np.ndarray, p: np.ndarray, q: np.ndarray, header: str = "
     return tum_text(np.column_stack([times[ok], p[ok], q[ok][:, 1:], q[ok][:, :1]]), header)
 
 
+def _pose(o, name: str):
+    """(p, q_wxyz, 6 x 6 pose covariance) of ``name`` on run ``o``."""
+    if name == "truth":
+        return o.truth[:, :3], o.truth[:, 6:10], None
+    tr = o.tracks[name]
+    return tr.p, tr.q, tr.pose_cov
+
+
 def write_tum_3d(result: CampaignResult, out_dir: Path) -> list[str]:
-    """``truth.tum`` and ``<name>.tum`` for every estimator tracked on run 0, each headed
-    by a comment naming the world, the estimator and the run."""
-    first = result.outcomes[0]
-    names = tum_names(result)
-    if not names:
-        return []
-    pq = {"truth": (first.truth[:, :3], first.truth[:, 6:10]),
-          **{n: (tr.p, tr.q) for n, tr in first.tracks.items()}}
-    return write_tum(out_dir, (
-        (n, tum_text_3d(first.times, *pq[n], tum_header(result, n, "ENU, q_nb; ")))
-        for n in names))
+    """``truth.tum``, ``<name>.tum`` and ``<name>.cov.txt`` for every estimator on each
+    tracked run (run 0; every run with ``--tum all``: :mod:`slam.render.tum`)."""
+    from slam.render import tum
+
+    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _pose,
+                         "ENU, q = q_nb (body to navigation frame); poses at the filter epochs",
+                         "t, then the 6 x 6 covariance of [position (m, ENU), attitude rotation"
+                         " vector (rad, body frame: q = q̂ ⊗ Exp(δθ))] row-major")

@@ -26,7 +26,6 @@ import numpy as np
 from slam.kind import Deferred
 from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
-from slam.render.output import tum_header, tum_names, write_tum
 from slam.render.output import tum_text as tum_lines
 from slam.render.tables import (
     DIVERGED_SHORT,
@@ -138,19 +137,34 @@ def tum_text(times: Array, poses: Array, header: str = "") -> str:
                                       np.cos(half)]), header)
 
 
+def _track(o, name: str):
+    """(positions, q_wxyz, pose covariance) of ``name`` on run ``o`` (z = 0, yaw only)."""
+    poses = o.truth if name == "truth" else o.tracks[name].poses
+    half = 0.5 * poses[:, 2]
+    zero = np.zeros(len(poses))
+    q = np.column_stack([np.cos(half), zero, zero, np.sin(half)])
+    cov = None if name == "truth" else o.tracks[name].pose_cov
+    return np.column_stack([poses[:, :2], zero]), q, cov
+
+
+TUM_NOTE = "x y in the map frame, z = 0, q: the heading about z; poses at the filter epochs"
+TUM_COV = "t, then the 3 x 3 covariance of [x, y, heading] row-major (m², m·rad, rad²)"
+
+
 def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
-    """``truth.tum`` and ``<name>.tum`` for every estimator tracked on run 0."""
-    first = result.outcomes[0]
-    names = tum_names(result)
-    poses = {"truth": first.truth, **{n: tr.poses for n, tr in first.tracks.items()}}
-    return write_tum(out_dir, ((n, tum_text(first.times, poses[n], tum_header(result, n)))
-                               for n in names))
+    """``truth.tum``, ``<name>.tum`` and ``<name>.cov.txt`` of every estimator on each
+    tracked run (run 0; every run with ``--tum all``: :mod:`slam.render.tum`)."""
+    from slam.render import tum
+
+    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _track, TUM_NOTE,
+                         TUM_COV)
 
 
 def tum_links(result: CampaignResult) -> list[Link]:
     """The TUM files :func:`write_tum_files` writes, for the report's file list."""
-    return [(f"{n}.tum", f"run 0's {'true' if n == 'truth' else n} trajectory (TUM: t x y z "
-             "qx qy qz qw)") for n in tum_names(result)]
+    from slam.render import tum
+
+    return tum.links(result, list(result.outcomes[0].tracks), "trajectory")
 
 
 REPORT = KindReport("planar SLAM campaign", planar_sections,

@@ -46,7 +46,7 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
     truths = [log.truth[st] for log, st in zip(logs, steps)]
     scores: list[dict] = [{} for _ in logs]
     tracks: list[dict] = [{} for _ in logs]
-    keep = [keep_first and r == 0 for r in runs]
+    keep = [keep_first and (r == 0 or not batched) for r in runs]  # run_once: as asked
     for name in filters:
         results = run_slam_batch(logs, name, association=fs.association,
                                  gates=(fs.gate_accept, fs.gate_new), epoch_steps=period,

@@ -16,6 +16,7 @@ import numpy as np
 
 from slam.kind import Deferred
 from slam.kinds.planar.report import tum_text
+from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS
 from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section
 from slam.render.output import write_tum
@@ -105,10 +106,15 @@ def _tracks(result: CampaignResult) -> dict:
 def write_log_tum(result: CampaignResult, out_dir: Path) -> list[str]:
     """``<name>.tum`` for every estimator of the run; the time column is the pose index."""
     def text(name: str, tr) -> str:
-        return tum_text(np.asarray(tr.steps, dtype=float), tr.poses,
+        steps = np.asarray(tr.steps, dtype=float)
+        n = int(np.sum(np.all(np.isfinite(tr.poses), axis=1) & np.isfinite(steps)))
+        which = ("every pose of the chain" if name in (REFERENCE, "odometry") else
+                 "the filter's epochs: the poses with sightings, the last pose, and one every "
+                 f"{DEFAULT_MAX_EPOCH_STEPS} odometry steps between")
+        return tum_text(steps, tr.poses,
                         f"{result.summary.get('log', '')}: {name}; time column = pose index "
                         "along the odometry chain (the log has no time stamps); t x y z qx "
-                        "qy qz qw")
+                        f"qy qz qw\n{n} poses: {which}")
 
     return write_tum(Path(out_dir), ((n, text(n, tr)) for n, tr in _tracks(result).items()))
 

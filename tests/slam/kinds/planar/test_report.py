@@ -38,7 +38,7 @@ def _table_names(markdown: str) -> list[str]:
 def test_all_files_written(result, written):
     out, paths = written
     expected = {"summary.json", "report.md", "report.html", *FIGURES, "truth.tum",
-                *(f"{n}.tum" for n in ROWS), ".slam-output"}
+                *(f"{n}.tum" for n in ROWS), *(f"{n}.cov.txt" for n in ROWS), ".slam-output"}
     assert {p.name for p in paths} == expected
     assert {p.name for p in out.iterdir()} == expected
     assert all(p.parent == out and p.stat().st_size > 0 for p in paths)
@@ -114,6 +114,13 @@ def test_tum_files(result, written):
         yaw = 2 * np.arctan2(rows[:, 6], rows[:, 7])
         np.testing.assert_allclose(np.angle(np.exp(1j * (yaw - poses[:, 2]))), 0, atol=1e-6)
     assert "nan" not in (out / "ekf.tum").read_text().lower()
+    # the covariance sidecar: one row per pose of the TUM file, t then the 3 x 3 pose
+    # covariance of [x, y, heading]
+    cov = np.loadtxt(out / "srckf.cov.txt")
+    assert cov.shape == (k1, 10)
+    np.testing.assert_allclose(cov[:, 0], first.times, atol=1e-6)
+    np.testing.assert_allclose(cov[:, 1:].reshape(-1, 3, 3), first.tracks["srckf"].pose_cov,
+                               rtol=1e-8, atol=1e-15)
 
 
 def test_tum_drops_non_finite_rows():

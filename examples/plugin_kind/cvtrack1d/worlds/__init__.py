@@ -1,0 +1,1 @@
+"""The plug-in's worlds (``*.toml`` here; ``slam worlds`` lists them)."""

@@ -1,0 +1,112 @@
+r"""TUM trajectory files for every run that kept its tracks, with covariance sidecars.
+
+``<name>.tum`` (run 0) and ``<name>.run<r>.tum`` (run r, with ``slam run --tum all``): one
+line ``t x y z qx qy qz qw`` per pose, the time to the microsecond, after ``#`` comment
+lines that name the world, the estimator, the run, the frames and the number of poses and
+their time base.  Attitude-only kinds write zero position (stated in the header).
+``<name>[.run<r>].cov.txt`` beside it: per pose of the TUM file ``t`` then the pose
+covariance row-major (its tangent and units in the header); rows of the TUM file and the
+sidecar correspond one to one (poses without a finite estimate are left out of both).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from slam.render.output import tum_text, write_tum
+from slam.results import Array, CampaignResult, RunOutcome
+
+TrackOf = Callable[[RunOutcome, str], tuple[Array, Array, Array | None]]
+"""``(outcome, name) -> (positions (E, 3), quaternions q_wxyz (E, 4), covariance (E, k, k)
+or None)`` of ``name`` (``"truth"``: the true trajectory) on that run."""
+
+
+def suffix(run: int) -> str:
+    """The file-name part of a run: ``""`` for run 0, ``".run<r>"`` for the others."""
+    return "" if run == 0 else f".run{run}"
+
+
+def tracked(result: CampaignResult) -> list[RunOutcome]:
+    """The runs that kept full tracks (run 0; every run with ``--tum all``)."""
+    return [o for o in result.outcomes if o.tracks and o.truth is not None
+            and o.times is not None]
+
+
+def header(result: CampaignResult, run: int, name: str, note: str, poses: int) -> str:
+    """The comment lines of a TUM file."""
+    s = result.summary
+    seed = f" (seed {s['seed']})" if "seed" in s else ""
+    return (f"{s.get('world', '')}: {name}, run {run} of {s.get('runs', len(result.outcomes))}"
+            f"{seed}; {note}\n"
+            f"{poses} poses; t: seconds from the start of the run; "
+            "columns t x y z qx qy qz qw")
+
+
+def rows(times: Array, p: Array, q_wxyz: Array) -> tuple[Array, Array]:
+    """TUM rows ``[t, x, y, z, qx, qy, qz, qw]`` of the finite poses, and their mask."""
+    ok = (np.isfinite(times) & np.all(np.isfinite(p), axis=1)
+          & np.all(np.isfinite(q_wxyz), axis=1))
+    q = q_wxyz[ok]
+    return np.column_stack([times[ok], p[ok], q[:, 1:], q[:, :1]]), ok
+
+
+def cov_text(times: Array, cov: Array, head: str) -> str:
+    """The sidecar: ``t`` and the row-major covariance per line (NaN where none)."""
+    flat = cov.reshape(cov.shape[0], int(np.prod(cov.shape[1:])))  # 0 poses: 0 rows
+    return "".join(f"# {line}\n" for line in head.splitlines()) + "".join(
+        f"{t:.6f} " + " ".join(f"{v:.9g}" for v in c) + "\n" for t, c in zip(times, flat))
+
+
+def write_all(result: CampaignResult, out_dir: Path, names: Iterable[str], track: TrackOf,
+              note: str, cov_note: str) -> list[str]:
+    """Write every tracked run's ``truth`` and estimator TUM files and sidecars; -> the
+    file names."""
+    texts: list[tuple[str, str]] = []
+    sidecars: list[str] = []
+    for o in tracked(result):
+        for name in ["truth", *[n for n in names if n in o.tracks]]:
+            p, q, cov = track(o, name)
+            r, ok = rows(np.asarray(o.times, dtype=float), p, q)
+            stem = f"{name}{suffix(o.run)}"
+            texts.append((stem, tum_text(r, header(result, o.run, name, note, len(r)))))
+            if cov is not None and name != "truth":
+                (out_dir / f"{stem}.cov.txt").write_text(
+                    cov_text(r[:, 0], cov[ok], f"{result.summary.get('world', '')}: {name}, "
+                             f"run {o.run}: covariance per pose of {stem}.tum; {cov_note}"),
+                    encoding="utf-8")
+                sidecars.append(f"{stem}.cov.txt")
+    return [*write_tum(out_dir, texts), *sidecars]
+
+
+def links(result: CampaignResult, names: Iterable[str], what: str,
+          cov: bool = True) -> list[tuple[str, str]]:
+    """The report's file list entries of :func:`write_all`'s files."""
+    out = []
+    for o in tracked(result):
+        for name in ["truth", *[n for n in names if n in o.tracks]]:
+            stem = f"{name}{suffix(o.run)}"
+            who = "true" if name == "truth" else name
+            out.append((f"{stem}.tum", f"run {o.run}'s {who} {what} (TUM)"))
+            if cov and name != "truth":
+                out.append((f"{stem}.cov.txt", f"its covariance per pose ({stem}.tum's rows)"))
+    return out
+
+
+ATTITUDE_NOTE = ("attitude only: the position columns are zero; q = q_nb (body to "
+                 "navigation frame)")
+ATTITUDE_COV = ("t, then the 3 x 3 attitude covariance row-major (rad², body-frame rotation "
+                "vector: q = q̂ ⊗ Exp(δθ))")
+
+
+def attitude_track(quats: Callable[[RunOutcome, str], Array],
+                   covs: Callable[[RunOutcome, str], Array | None]) -> TrackOf:
+    """A :data:`TrackOf` of an attitude-only kind: zero position, the 3 × 3 attitude block
+    of the tangent covariance."""
+    def of(o: RunOutcome, name: str) -> tuple[Array, Array, Array | None]:
+        q = np.asarray(quats(o, name), dtype=float)
+        c = covs(o, name)
+        return np.zeros((len(q), 3)), q, None if c is None else np.asarray(c)[:, :3, :3]
+    return of
