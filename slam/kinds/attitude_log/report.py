@@ -8,37 +8,42 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section
 from slam.render.tables import MISSING, anees_cell, interval, num, plain_table
 from slam.results import REFERENCE, CampaignResult
 
-HEADER = ("estimator", "att RMS (deg)", "after 10 s (deg)", "final (deg)", "bias RMS (deg/s)",
+HEADER = ("estimator", "rank", "att RMS (deg)", "after 10 s (deg)", "final (deg)",
+          "bias RMS (deg/s)",
           "vs smoother after 10 s (deg)", "ANEES [95 % band]", "verdict", "NIS/dof [band]",
           "CPU (s)", "diverged")
 
 
-def _row(name: str, e: dict[str, Any]) -> list[str]:
+def _row(name: str, e: dict[str, Any], rank: str) -> list[str]:
     if e.get("diverged"):
-        return [name, *([MISSING] * 9), f"yes: {e.get('failure')}"]
+        return [name, rank, *([MISSING] * 9), f"yes: {e.get('failure')}"]
     nis = num(e.get("nis_per_dof"), ".2f")
     if nis != MISSING:
         nis = f"{nis} {interval(e.get('nis_bounds_95'), '.2f')}"
-    return [name, num(e.get("att_rmse_deg"), ".3f"), num(e.get("att_rmse_after_10s_deg"), ".3f"),
+    return [name, rank, num(e.get("att_rmse_deg"), ".3f"),
+            num(e.get("att_rmse_after_10s_deg"), ".3f"),
             num(e.get("att_final_deg"), ".3f"), num(e.get("bias_rmse_deg_s"), ".4f"),
             num(e.get("att_rmse_to_smoother_after_10s_deg"), ".3f"), anees_cell(e),
             e.get("consistency", MISSING), nis, num(e.get("cpu_s"), ".2f"), "no"]
 
 
 def rows(summary: dict[str, Any]) -> list[list[str]]:
-    """One row per filter, then the smoother."""
-    return [*(_row(n, e) for n, e in summary["filters"].items()),
-            *(_row(f"{n} (smoother)", e) for n, e in summary["reference"].items())]
+    """One row per filter (with its rank on the whole-log attitude error), then the
+    smoother."""
+    rank = rank_column(summary, "attitude").cell
+    return [*(_row(n, e, rank(n, e)) for n, e in summary["filters"].items()),
+            *(_row(f"{n} (smoother)", e, MISSING) for n, e in summary["reference"].items())]
 
 
 def settings_rows(summary: dict[str, Any]) -> list[list[str]]:
     """Each filter's settings, the initial belief and the gyro noise read from the log."""
     b = summary["initial_belief"]
-    out = [[n, e.get("settings", MISSING)] for n, e in summary["filters"].items()]
+    out = [[n, e.get("settings_text") or "none"] for n, e in summary["filters"].items()]
     out.append(["initial belief", f"{b['attitude']} attitude, zero bias; P0 = diag("
                 f"{b['attitude_var_rad2']:g} I3 rad², {b['bias_var_rad2_s2']:g} I3 rad²/s²)"])
     out.append(["gyro noise (from the log)",
@@ -60,8 +65,10 @@ def sections(summary: dict[str, Any]) -> list[Section]:
             f"epochs against the log's truth; 'vs smoother' is the same against the GTSAM "
             f"AHRS smoother. ANEES: 6-dof NEES over the epochs with the one-run 95 % band; "
             f"NIS: {summary['nis_dof_note']}.{smoother}")
-    return [Section("Results", HEADER, rows(summary), text),
-            Section("Settings", ("item", "value"), settings_rows(summary), key_value=True)]
+    head, *rest = decision_sections(summary) or [None]
+    return [s for s in (head, Section("Results", HEADER, rows(summary), text), *rest,
+                        Section("Settings", ("item", "value"), settings_rows(summary),
+                                key_value=True)) if s is not None]
 
 
 def figures() -> dict[str, tuple[Any, str]]:
@@ -109,5 +116,6 @@ def tum_links(result: CampaignResult) -> list[Link]:
 
 
 REPORT = KindReport(what="recorded attitude log", sections=sections, figures=figures,
-                    text_table=lambda s: plain_table(HEADER, rows(s)),
+                    text_table=lambda s: "\n".join([plain_table(HEADER, rows(s)), "",
+                                                    decision_text(s)]),
                     extra_files=write_tum_files, links=tum_links)

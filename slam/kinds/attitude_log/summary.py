@@ -1,7 +1,10 @@
 """The ``summary.json`` of a recorded attitude log: per estimator the attitude error
 against the truth (RMS, after 10 s, final), the bias error, the attitude difference to
 the smoother, ANEES with its one-run 95 % band and verdict, NIS per dof with its band,
-wall and CPU time, and the filters' settings."""
+wall and CPU time, the filters' settings, and the decision (:func:`slam.decision.decide`):
+the filters ranked by their mean squared attitude error against the log's truth, over the
+whole log and after the first 10 s - one log is one run, so no difference is called
+significant."""
 
 from __future__ import annotations
 
@@ -10,8 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from slam.decision import Consistency, decide
 from slam.kinds.attitude_log.run import DEG, STEADY_FROM_S, AttitudeLogScores
 from slam.kinds.attitude_log.world import KIND, AttitudeLogWorld
+from slam.ranking import Metric, per_run
 from slam.render.tables import verdict
 from slam.results import REFERENCE, RunOutcome
 from slam.scoring import anees_entries, nis_stats
@@ -23,7 +28,7 @@ def _rms_deg(err: np.ndarray) -> float:
     return float(np.sqrt(np.mean(norm**2)) / DEG) if norm.size else float("nan")
 
 
-def entry(s: AttitudeLogScores, t: np.ndarray, settings: str | None = None) -> dict[str, Any]:
+def entry(s: AttitudeLogScores, t: np.ndarray) -> dict[str, Any]:
     """One estimator's summary entry (module docstring); a diverged one says why."""
     out: dict[str, Any] = {"diverged": s.diverged}
     if s.diverged:
@@ -54,11 +59,25 @@ def entry(s: AttitudeLogScores, t: np.ndarray, settings: str | None = None) -> d
                     "nis_updates": st["updates"], "nis_updates_inside_95": st["inside"]})
     out["time_s"] = s.time_s
     out["cpu_s"] = s.cpu_s
-    if settings is not None:
-        out["settings"] = settings
     if s.extra_time_s:
         out["marginals_time_s"] = s.extra_time_s
     return out
+
+
+def _mse_deg2(err: np.ndarray) -> float:
+    return _rms_deg(err) ** 2
+
+
+def metrics(outcomes: list[RunOutcome], names: list[str], t: np.ndarray) -> list[Metric]:
+    """The headline metrics: per-run mean squared attitude error (deg²) against the
+    truth over the whole log and from ``STEADY_FROM_S`` on."""
+    steady = t >= t[0] + STEADY_FROM_S
+    return [
+        Metric("attitude", "attitude (whole log)", "deg", {
+            n: per_run(outcomes, n, lambda s: _mse_deg2(s.err[:, :3])) for n in names}),
+        Metric("attitude_after_10s", f"attitude (after {STEADY_FROM_S:g} s)", "deg", {
+            n: per_run(outcomes, n, lambda s: _mse_deg2(s.err[steady, :3])) for n in names}),
+    ]
 
 
 def summarize(world: AttitudeLogWorld, outcomes: list[RunOutcome], filters: list[str],
@@ -69,7 +88,7 @@ def summarize(world: AttitudeLogWorld, outcomes: list[RunOutcome], filters: list
     t = log.t[rows]
     scores = outcomes[0].scores
     fs = world.filters
-    return {
+    summary = {
         "world": world.name, "kind": KIND, "log": Path(log.source).name, "source": log.source,
         "rows": log.n_rows, "epochs": int(len(rows)), "duration_s": float(log.t[-1] - log.t[0]),
         "sensors": log.n_sensors,
@@ -80,6 +99,10 @@ def summarize(world: AttitudeLogWorld, outcomes: list[RunOutcome], filters: list
                            "bias_var_rad2_s2": fs.initial_bias_var_rad2_s2},
         "steady_from_s": STEADY_FROM_S,
         "nis_dof_note": "2 dof per unit reading (its radial component carries no noise)",
-        "filters": {n: entry(scores[n], t, fs.describe(n) or "none") for n in filters},
+        "filters": {n: entry(scores[n], t) for n in filters},
         "reference": {REFERENCE: entry(scores[REFERENCE], t)},
     }
+    return decide(summary, metrics(outcomes, [*filters, REFERENCE], t), filters=filters,
+                  consistency=Consistency(label="attitude + bias (6-dof)"),
+                  settings={n: fs.settings_of(n) for n in filters},
+                  settings_text={n: fs.describe(n) for n in filters})
