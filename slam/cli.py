@@ -251,19 +251,28 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "array axis; kinds without it run per run); per-run: one run per task, the "
                    "reference path. Both give the same numbers to round-off.")
 @click.option("--log", "log_file", metavar="FILE",
-              help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "
-                   "text format (ODOMETRY/LANDMARK lines, e.g. victoria_park.txt) instead of a "
-                   "world; the filters are scored against the smoother.")
+              help="Run the filters and the GTSAM smoother on a recorded log instead of a "
+                   "world: GTSAM's planar text format (ODOMETRY/LANDMARK lines, e.g. "
+                   "victoria_park.txt; scored against the smoother), or an IMU + GNSS log: "
+                   "'kitti' (GTSAM's bundled KITTI drive) or FILE.csv with its sidecar "
+                   "FILE.toml (layout: python -m pydoc slam.kinds.ins_log).")
+@click.option("--holdout", type=int, metavar="K",
+              help="IMU + GNSS logs: withhold every K-th GNSS fix from every estimator and "
+                   "score the position error there (from fix 60).")
+@click.option("--outage", "outages", multiple=True, metavar="START:LENGTH",
+              help="IMU + GNSS logs: drop every GNSS fix from START for LENGTH seconds (from "
+                   "the first IMU stamp) and score the drift at the window's end; repeatable.")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
+            no_plots: bool, mode: str | None, executor: str, log_file: str | None,
+            holdout: int | None = None, outages: tuple[str, ...] = ()) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor)
+                 caught, executor, holdout, outages)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -271,11 +280,16 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
-         executor: str = "batched") -> None:
+         executor: str = "batched", holdout: int | None = None,
+         outages: tuple[str, ...] = ()) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
+    if log_file is None and (holdout is not None or outages):
+        raise InputError(f"{'--holdout' if holdout is not None else '--outage'} applies to "
+                         "an IMU + GNSS log only (--log kitti or --log FILE.csv)")
     if log_file is not None:
-        w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
-        workers, own_mode = 1, None if mode else w.filters.mode
+        w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode,
+                            holdout, outages)
+        workers, own_mode = 1, None if mode else getattr(w.filters, "mode", None)
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
     _load_kind(kind, caught, plots=not no_plots)
@@ -351,8 +365,9 @@ def _open_world(name: str, mode: str | None):
 
 def _open_log(log_file: str, world: str | None, filters: str | None, runs: int | None,
               seed: int | None, workers: int | None, scheduler: str | None,
-              mode: str | None):
-    """``--log FILE``: the log as a one-run world of the recorded-log kind."""
+              mode: str | None, holdout: int | None = None, outages: tuple[str, ...] = ()):
+    """``--log FILE``: the log as a one-run world of the log kind that reads it (planar
+    GTSAM text, or IMU + GNSS: :func:`slam.registry.log_kind`)."""
     from slam.kinds.recorded.log import LogFormatError
     from slam.registry import log_kind, open_log
     from worlds import WorldError
@@ -361,9 +376,21 @@ def _open_log(log_file: str, world: str | None, filters: str | None, runs: int |
                        (workers, "--workers"), (scheduler, "--scheduler")):
         if given is not None:
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
-    kind = log_kind()
+    kind = log_kind(log_file)
+    options: dict[str, Any] = {}
+    if holdout is not None or outages:
+        if kind is log_kind():
+            raise InputError("--holdout and --outage apply to an IMU + GNSS log only "
+                             f"(--log kitti or FILE.csv), not to {log_file}")
+        from slam.kinds.ins_log.world import parse_outage
+
+        try:
+            options = {"holdout": holdout, "outages": [parse_outage(o) for o in outages]}
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
     try:
-        w = open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None, mode)
+        w = open_log(Path(log_file), _parse_filters(filters, (), kind.filters) or None, mode,
+                     **options)
     except (LogFormatError, WorldError) as exc:
         raise InputError(f"--log {exc}") from None
     return w, kind

@@ -14,7 +14,17 @@ from typing import Any
 
 import worlds.schema as ws
 from slam.kind import Kind
-from slam.kinds import alignment, attitude, drone, fixed_wing, planar, recorded, ship, spinning
+from slam.kinds import (
+    alignment,
+    attitude,
+    drone,
+    fixed_wing,
+    ins_log,
+    planar,
+    recorded,
+    ship,
+    spinning,
+)
 from worlds import limits
 from worlds.loader import WorldDocument, bundled_documents, check_nesting, read_world
 from worlds.schema import WorldError
@@ -38,7 +48,7 @@ def register(kind: Kind) -> Kind:
 
 
 for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
-           alignment.KIND, fixed_wing.KIND):
+           alignment.KIND, fixed_wing.KIND, ins_log.KIND):
     register(_k)
 
 
@@ -47,9 +57,13 @@ def get_kind(name: str) -> Kind:
     return KINDS[name]
 
 
-def log_kind() -> Kind:
-    """The kind that reads recorded logs (``slam run --log``)."""
-    return next(k for k in KINDS.values() if k.open_log is not None)
+def log_kind(path: str | os.PathLike[str] | None = None) -> Kind:
+    """The kind that reads the recorded log ``path`` (``slam run --log``): the IMU + GNSS
+    log kind for ``kitti``, a ``.csv`` or a folder of the KITTI files
+    (:func:`slam.kinds.ins_log.reads`), else the planar-log kind (also without ``path``)."""
+    if path is not None and ins_log.reads(path):
+        return KINDS[ins_log.KIND.name]
+    return KINDS[recorded.KIND.name]
 
 
 def _world_kind(data: Any, source: str) -> Kind:
@@ -98,11 +112,11 @@ def check_work(world: Any, data: dict[str, Any] | None = None) -> None:
     limits.check_work(get_kind(world.kind).work(world), world.kind, error)
 
 
-def open_log(path: Path, filters: Any = None, mode: str | None = None) -> Any:
+def open_log(path: Path, filters: Any = None, mode: str | None = None, **options: Any) -> Any:
     """A recorded log as a one-run world of the log kind (``slam run --log FILE``), its
     work checked like a world's (raises the kind's ``LogFormatError`` or a
     :class:`~worlds.schema.WorldError` naming the file)."""
-    world = log_kind().open_log(Path(path), filters, mode)
+    world = log_kind(path).open_log(Path(path), filters, mode, **options)
     check_work(world)
     return world
 

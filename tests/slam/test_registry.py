@@ -31,11 +31,14 @@ def test_the_built_in_kinds_are_registered() -> None:
         assert isinstance(kind, Kind) and kind.name == name and get_kind(name) is kind
     with pytest.raises(KeyError):
         get_kind("submarine")
-    # exactly one kind reads recorded logs, and it refuses world files
+    # two kinds read recorded logs (planar and IMU + GNSS), chosen by the path, and both
+    # refuse world files
     readers = [k for k in KINDS.values() if k.open_log is not None]
-    assert readers == [log_kind()]
-    with pytest.raises(WorldError, match="--log"):
-        world_from_dict({"kind": log_kind().name}, name="x")
+    assert readers == [log_kind(), log_kind("kitti")]
+    assert log_kind("a/b.csv") is log_kind("kitti") is not log_kind("victoria_park.txt")
+    for kind in readers:
+        with pytest.raises(WorldError, match="--log"):
+            world_from_dict({"kind": kind.name}, name="x")
 
 
 def test_only_drawing_a_figure_imports_matplotlib() -> None:

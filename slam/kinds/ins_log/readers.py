@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nav.strapdown import G0
 from slam.kinds.ins_log.log import (
     KITTI_FILES,
     InsLog,
@@ -17,7 +18,6 @@ from slam.kinds.ins_log.log import (
 )
 from slam.kinds.ins_log.settings import KITTI_METADATA, kitti_settings, read_sidecar
 from slam.kinds.recorded.log import LogFormatError
-from nav.strapdown import G0
 
 #: Fewest readings and fixes a log must hold.
 MIN_READINGS, MIN_FIXES = 2, 3
