@@ -90,14 +90,18 @@ class ImuPsd:
     gyro_bias: BiasProcess
     accel_bias: BiasProcess
 
-    def as_dict(self) -> dict[str, float]:
+    def as_dict(self) -> dict[str, float | str]:
         """The figures for a summary (SI, densities per √Hz, PSDs per s)."""
         g, a = self.gyro_bias, self.accel_bias
+
+        def time(t: float) -> float | str:
+            return t if math.isfinite(t) else "inf"
+
         return {"gyro_density_rad_s_sqrt_hz": self.gyro_density,
                 "accel_density_mps2_sqrt_hz": self.accel_density,
-                "gyro_bias_markov_sigma_rad_s": g.markov_sigma, "gyro_bias_time_s": g.time_s,
+                "gyro_bias_markov_sigma_rad_s": g.markov_sigma, "gyro_bias_time_s": time(g.time_s),
                 "gyro_bias_walk_psd": g.walk_psd,
-                "accel_bias_markov_sigma_mps2": a.markov_sigma, "accel_bias_time_s": a.time_s,
+                "accel_bias_markov_sigma_mps2": a.markov_sigma, "accel_bias_time_s": time(a.time_s),
                 "accel_bias_walk_psd": a.walk_psd}
 
 

@@ -53,7 +53,8 @@ def settings_lines(summary: dict[str, Any]) -> list[str]:
     out = [f"Settings: {st.get('reading', '')}"]
     imu = st.get("imu") or {}
     if imu:
-        out.append("IMU model (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in imu.items()))
+        out.append("IMU model (SI): " + ", ".join(
+            f"{k} {v:.4g}" if isinstance(v, float | int) else f"{k} {v}" for k, v in imu.items()))
     for n, d in (st.get("filters") or {}).items():
         if d:
             out.append(f"{n}: {d}")

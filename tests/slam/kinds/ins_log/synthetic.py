@@ -1,0 +1,80 @@
+"""A synthetic IMU + GNSS CSV log with its sidecar: a level constant turn, whose body
+rate and specific force are constant (so any time stamps give exact readings)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+SIDECAR = """\
+[frames]
+navigation = "{nav}"
+body = "{body}"
+[units]
+gyro = "{gyro_unit}"
+accel = "m/s^2"
+[imu]
+arw_deg_sqrt_h = 0.05
+vrw_mps_sqrt_h = 0.02
+gyro_rate_random_walk_deg_h_sqrt_h = 0.5
+accel_random_walk_mps2_sqrt_h = 0.001
+[gnss]
+position_sigma_m = 0.1
+[site]
+latitude_deg = 45.0
+height_m = 0.0
+[initial]
+velocity_sigma_mps = 0.5
+roll_pitch_sigma_deg = 2.0
+heading_sigma_deg = 3.0
+gyro_bias_sigma_deg_h = 10.0
+accel_bias_sigma_mg = 2.0
+[alignment]
+min_speed_mps = 2.0
+[filters]
+names = ["ekf", "srckf"]
+"""
+
+
+def turn(t: np.ndarray, speed: float = 10.0, radius: float = 500.0
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ENU position, FLU gyro and specific force of the turn at times ``t``."""
+    from nav.gravity import normal_gravity
+
+    w = speed / radius
+    p = np.stack([radius * np.sin(w * t), radius * (1 - np.cos(w * t)), 0 * t], axis=1)
+    g = float(normal_gravity(math.radians(45.0)))
+    gyro = np.tile([0.0, 0.0, w], (len(t), 1))
+    accel = np.tile([0.0, speed * w, g], (len(t), 1))
+    return p, gyro, accel
+
+
+def write_log(folder: Path, name: str = "turn", *, ned: bool = False, deg: bool = False,
+              duration: float = 90.0, seed: int = 0) -> Path:
+    """The CSV (uneven 5-15 ms stamps, a fix every second) and its sidecar."""
+    rng = np.random.default_rng(seed)
+    steps = rng.uniform(0.005, 0.015, int(duration / 0.005))
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    t = t[t <= duration]
+    t = np.union1d(t, np.arange(0.0, duration))  # a row at every whole second
+    p, gyro, accel = turn(t)
+    if ned:
+        p = np.stack([p[:, 1], p[:, 0], -p[:, 2]], axis=1)
+        gyro = gyro * [1, -1, -1]
+        accel = accel * [1, -1, -1]
+    if deg:
+        gyro = np.degrees(gyro)
+    fix = np.isin(t, np.arange(0.0, duration))
+    lines = ["t,gx,gy,gz,ax,ay,az,px,py,pz"]
+    for k in range(len(t)):
+        pos = ",".join(f"{x:.9f}" for x in p[k]) if fix[k] else ",,"
+        lines.append(f"{t[k]:.9f}," + ",".join(f"{x:.12g}" for x in (*gyro[k], *accel[k]))
+                     + "," + pos)
+    path = folder / f"{name}.csv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    (folder / f"{name}.toml").write_text(SIDECAR.format(
+        nav="NED" if ned else "ENU", body="FRD" if ned else "FLU",
+        gyro_unit="deg/s" if deg else "rad/s"), encoding="utf-8")
+    return path
