@@ -40,7 +40,7 @@ MAX_BYTES = 200_000_000
 MAX_ROWS = 5_000_000
 #: Readings further apart than this (s) are counted as gaps (they are still held).
 GAP_S = 0.1
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+_NUMBER = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?\Z")
 
 __all__ = ["Epochs", "InsLog", "KITTI_FILES", "number", "read_lines"]
 

@@ -136,8 +136,8 @@ def _to_enu_flu(v: np.ndarray, frame: str) -> np.ndarray:
 def read_csv(path: Path, filters: tuple[str, ...] | None = None) -> InsLog:
     """A CSV log and its sidecar (:mod:`slam.kinds.ins_log`)."""
     source = str(path)
-    settings = read_sidecar(path.with_suffix(".toml"), filters)
     lines = read_lines(path)
+    settings = read_sidecar(path.with_suffix(".toml"), filters)
     body = [(i, ln) for i, ln in enumerate(lines, start=1)
             if ln.strip() and not ln.lstrip().startswith("#")]
     if not body:

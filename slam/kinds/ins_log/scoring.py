@@ -25,6 +25,7 @@ import numpy as np
 
 from slam.kinds.ins_log.run import DROPPED, ONLINE, SMOOTHED, WITHHELD, EstimatorTrack
 from slam.kinds.ins_log.world import SCORE_FROM, Scoring
+from slam.nulls import reason_key, unexplained_nulls
 from slam.results import RunOutcome
 from slam.scoring import chi2_ppf
 
@@ -119,7 +120,24 @@ def score_track(log: Any, tr: EstimatorTrack, a: int, roles: np.ndarray, scoring
         out["outages"] = ends
     if tr.name not in (ONLINE, SMOOTHED):
         out["nis"] = nis_windows(tr.nis, tr.nis_dof)
+    explain_nulls(out, f"not finite: the estimator failed ({tr.failure})" if tr.failure
+                  else "not finite (no finite estimate or covariance there)")
     return out
+
+
+def explain_nulls(table: dict[str, Any], why: str) -> None:
+    """Give every null (or list or table holding one) in ``table`` and the tables below it
+    a ``<key>_reason`` (:mod:`slam.nulls`) saying ``why``, unless it has one."""
+    for key, value in list(table.items()):
+        if isinstance(value, dict):
+            explain_nulls(value, why)
+        elif isinstance(value, list):
+            for v in value:
+                if isinstance(v, dict):
+                    explain_nulls(v, why)
+        if unexplained_nulls({key: value}) and reason_key(key) not in table \
+                and not isinstance(value, dict):
+            table[reason_key(key)] = why
 
 
 def summary_of(world: Any, outcome: RunOutcome, filters: list[str], score_from: int
@@ -138,6 +156,7 @@ def summary_of(world: Any, outcome: RunOutcome, filters: list[str], score_from: 
         "duration_s": log.duration_s, "gaps_over_0_1_s": log.gaps,
         "fixes_outside_imu_span": log.dropped_fixes,
         "holdout": world.scoring.holdout, "score_from_fix": score_from,
+        **({} if world.scoring.holdout else {"holdout_reason": "no --holdout K given"}),
         "outages": [list(o) for o in world.scoring.outages],
         "alignment": first.values.get("alignment") if first else None,
         "settings": {"reading": s.reading, "imu": s.psd.as_dict(),
@@ -149,6 +168,8 @@ def summary_of(world: Any, outcome: RunOutcome, filters: list[str], score_from: 
         "reference": {n: sc[n].values for n in (ONLINE, SMOOTHED) if n in sc},
         "warnings": warnings,
     }
+    if out["alignment"] is None:
+        out["alignment_reason"] = "no estimator ran"
     best = [(v["heldout"]["rmse_m"], n) for n, v in out["filters"].items()
             if v.get("heldout", {}).get("rmse_m") is not None]
     online = out["reference"].get(ONLINE, {}).get("heldout", {}).get("rmse_m")

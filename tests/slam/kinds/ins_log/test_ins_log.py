@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from slam.kinds.ins_log.run import DROPPED, USED, WITHHELD, alignment, fix_roles, run_once
+from slam.kinds.ins_log.synthetic import write_log
 from slam.kinds.ins_log.world import open_log, parse_outage, reads
 from slam.kinds.recorded.log import LogFormatError
-from tests.slam.kinds.ins_log.synthetic import write_log
 
 
 @pytest.fixture(scope="module")
@@ -59,6 +59,29 @@ def test_filters_and_smoother_follow_the_turn_at_held_out_fixes(turn_log):
         assert s.values["outages"][0]["drift_m"] < 2.0, name
     ekf, srckf = (o.scores[n].values["heldout"]["rmse_m"] for n in ("ekf", "srckf"))
     assert abs(ekf - srckf) < 0.01
+    from slam.kinds.ins_log.run import summarize
+    from slam.nulls import unexplained_nulls
+
+    summary = summarize(w, [o], ["ekf", "srckf"], 1, 0)
+    assert unexplained_nulls(summary) == []
+    assert summary["best_filter_over_online"]["filter"] in ("ekf", "srckf")
+
+
+def test_summary_without_holdout_explains_its_nulls(turn_log):
+    from slam.kinds.ins_log.run import summarize
+    from slam.nulls import unexplained_nulls
+
+    w = open_log(turn_log)
+    o = run_once(w, 0, None, ["ekf"], reference=False)
+    assert unexplained_nulls(summarize(w, [o], ["ekf"], 1, 0)) == []
+
+
+def test_fullwidth_and_arabic_digits_are_refused(tmp_path):
+    for tok in ("１２", "١٢", "1_0"):
+        path = _broken(tmp_path, lambda ls, tok=tok: ls[:5] + [
+            ",".join([*ls[5].split(",")[:2], tok, *ls[5].split(",")[3:]])] + ls[6:])
+        with pytest.raises(LogFormatError, match="turn.csv:6: gy"):
+            open_log(path)
 
 
 def test_ned_frd_and_degrees_give_the_same_estimates(tmp_path):

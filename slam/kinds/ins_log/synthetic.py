@@ -1,5 +1,7 @@
-"""A synthetic IMU + GNSS CSV log with its sidecar: a level constant turn, whose body
-rate and specific force are constant (so any time stamps give exact readings)."""
+"""A small synthetic IMU + GNSS CSV log with its sidecar (the layout of
+:mod:`slam.kinds.ins_log`): a level constant turn, whose body rate and specific force are
+constant, so the error-free readings are exact for any time stamps (uneven 5-15 ms here).
+Used by the tests and the reader fuzz (:mod:`benchmarks.fuzz.insmutate`)."""
 
 from __future__ import annotations
 
@@ -51,9 +53,9 @@ def turn(t: np.ndarray, speed: float = 10.0, radius: float = 500.0
     return p, gyro, accel
 
 
-def write_log(folder: Path, name: str = "turn", *, ned: bool = False, deg: bool = False,
-              duration: float = 90.0, seed: int = 0) -> Path:
-    """The CSV (uneven 5-15 ms stamps, a fix every second) and its sidecar."""
+def log_text(*, ned: bool = False, deg: bool = False, duration: float = 90.0, seed: int = 0
+             ) -> tuple[str, str]:
+    """The CSV text (uneven 5-15 ms stamps, a fix every second) and its sidecar's."""
     rng = np.random.default_rng(seed)
     steps = rng.uniform(0.005, 0.015, int(duration / 0.005))
     t = np.concatenate([[0.0], np.cumsum(steps)])
@@ -72,9 +74,16 @@ def write_log(folder: Path, name: str = "turn", *, ned: bool = False, deg: bool 
         pos = ",".join(f"{x:.9f}" for x in p[k]) if fix[k] else ",,"
         lines.append(f"{t[k]:.9f}," + ",".join(f"{x:.12g}" for x in (*gyro[k], *accel[k]))
                      + "," + pos)
-    path = folder / f"{name}.csv"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    (folder / f"{name}.toml").write_text(SIDECAR.format(
+    return "\n".join(lines) + "\n", SIDECAR.format(
         nav="NED" if ned else "ENU", body="FRD" if ned else "FLU",
-        gyro_unit="deg/s" if deg else "rad/s"), encoding="utf-8")
+        gyro_unit="deg/s" if deg else "rad/s")
+
+
+def write_log(folder: Path, name: str = "turn", *, ned: bool = False, deg: bool = False,
+              duration: float = 90.0, seed: int = 0) -> Path:
+    """:func:`log_text` written as ``folder/name.csv`` and ``folder/name.toml``."""
+    csv, side = log_text(ned=ned, deg=deg, duration=duration, seed=seed)
+    path = folder / f"{name}.csv"
+    path.write_text(csv, encoding="utf-8")
+    path.with_suffix(".toml").write_text(side, encoding="utf-8")
     return path
