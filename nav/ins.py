@@ -43,9 +43,16 @@ from estimators import Euclidean, Noise, Product, Transition
 from estimators.linalg import NotPositiveDefiniteError, chol, tria
 from nav.gnss import InsLayout
 from nav.imu_noise import ImuPsd
-from nav.quaternion import skew
+from nav.quaternion import _PRODUCT_TABLE, qexp, skew
 from nav.spaces import UnitQuaternion
-from nav.strapdown import attitudes, dcm_unit, mechanise
+from nav.strapdown import (
+    _qexp,
+    attitudes,
+    dcm_unit,
+    gamma_coefficients,
+    hamilton,
+    mechanise,
+)
 
 Array = NDArray[np.float64]
 P, V, Q, BG, BA = slice(0, 3), slice(3, 6), slice(6, 10), slice(10, 13), slice(13, 16)
@@ -56,8 +63,9 @@ LAYOUT = InsLayout(DIM, bg=BG)
 #: At most this many IMU samples per step of the error-state transition.
 SUBSTEP_SAMPLES = 10
 
-__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "compose", "error_matrices",
-           "error_transition", "ins_transition", "propagate", "psd_sqrt"]
+__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "error_matrices",
+           "error_transition", "ins_transition", "preintegrate", "propagate",
+           "propagate_preintegrated", "psd_sqrt"]
 
 
 @dataclass(frozen=True)
@@ -155,9 +163,10 @@ def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
     return Phis, Qks
 
 
-def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel
-                     ) -> tuple[Array, Array]:
-    """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc)."""
+def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel,
+                     along: Array | None = None) -> tuple[Array, Array]:
+    """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc);
+    ``along``: the mean's attitudes at every sample (n + 1, 4) when already known."""
     n = gyro.shape[0]
     starts = np.arange(0, n, SUBSTEP_SAMPLES)
     h = np.add.reduceat(dt, starts)
@@ -166,21 +175,153 @@ def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsM
     wm = np.add.reduceat(w * dt[:, None], starts) / h[:, None]
     fm = np.add.reduceat(f * dt[:, None], starts) / h[:, None]
     mid = np.minimum(starts + SUBSTEP_SAMPLES // 2, (np.append(starts[1:], n) + starts) // 2)
-    C = dcm_unit(attitudes(x[Q], w, dt, model.earth_rate)[mid])
+    if along is None:
+        along = attitudes(x[Q], w, dt, model.earth_rate)
+    C = dcm_unit(along[mid])
     qc = model.qc()
     Phis, Qks = step_matrices(error_matrices(C, wm, fm, model), h, qc)
     Phi, Qe = compose(Phis, Qks)
     return Phi, 0.5 * (Qe + Qe.T)
 
 
-def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: InsModel
-                   ) -> Transition:
-    """The epoch's prediction ``f(X, None)`` with additive tangent noise along the mean;
-    EKF Jacobian :math:`\\Phi`."""
-    dt = np.asarray(dt, dtype=np.float64)
-    Phi, Qe = error_transition(x_mean, gyro, accel, dt, model)
+@dataclass(frozen=True)
+class Preintegrated:
+    r"""Body-frame increments over an epoch from an identity start without gravity at the
+    biases ``b`` = ``[b_g, b_a]`` (6,): ``dq`` (4,), ``dv``, ``dp`` (3,), their Jacobians
+    ``J`` (9, 6) of ``[δθ, δv, δp]`` (:math:`\Delta q(b + \delta b) = \Delta q\otimes
+    \mathrm{Exp}(J_\theta\delta b)`), the epoch length ``tau`` and the relative attitudes at
+    every sample ``q_samples`` (n + 1, 4)."""
 
-    def f(X: Array, u: object) -> Array:
-        return propagate(X, gyro, accel, dt, model)
+    dq: Array
+    dv: Array
+    dp: Array
+    J: Array
+    b: Array
+    tau: float
+    q_samples: Array
+
+
+def _qmul_table(p: Array, q: Array) -> Array:
+    """Hamilton products of (n, 4) rows by the product table (one outer product and one
+    matrix product: fewer array operations than :func:`nav.strapdown.hamilton`)."""
+    return (p[:, :, None] * q[:, None, :]).reshape(-1, 16) @ _PRODUCT_TABLE
+
+
+def _scan(E: Array) -> Array:
+    """Prefix products ``[1, E_0, E_0 E_1, ...]`` (n + 1, 4) of one series (log-depth)."""
+    out = E.copy()
+    off = 1
+    while off < len(out):
+        out = np.concatenate([out[:off], _qmul_table(out[:-off], out[off:])])
+        off *= 2
+    return np.concatenate([[[1.0, 0.0, 0.0, 0.0]], out])
+
+
+def _before(A: Array) -> Array:
+    """Sums of the rows before each row: ``[0, A_0, A_0 + A_1, ...]`` without the total."""
+    return np.concatenate([np.zeros((1,) + A.shape[1:]), np.cumsum(A, axis=0)[:-1]])
+
+
+def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrated:
+    r""":class:`Preintegrated` of one epoch's samples at biases ``b``: the mechanisation
+    of :mod:`nav.strapdown` from the identity (so :math:`\Delta q, \Delta v, \Delta p` are
+    its increments) and the bias Jacobians to second order in the interval (the
+    :math:`\Gamma` series to their first terms), with
+    :math:`R_k` the attitude at sample ``k``, :math:`J_r` the right Jacobian of
+    :math:`\phi_k = \omega_k\Delta t_k`, :math:`S_k = \sum_{j<k} R_{j+1}J_r(\phi_j)\Delta t_j`,
+    :math:`u_k = R_k\Gamma_1(\phi_k)f_k`, :math:`w_k = R_k\Gamma_2(\phi_k)f_k`:
+
+    .. math::
+
+        J_{\theta g} = -R_n^\top S_n,\quad
+        J_{vg} = \sum_k \big([u_k\times]S_k + \tfrac12 R_k[f_k\times]\Delta t_k\big)
+            \Delta t_k,\quad
+        J_{va} = -\sum_k R_k\Gamma_1\Delta t_k,
+
+        J_{pg} = \sum_k \big(J_{vg,<k}\Delta t_k + ([w_k\times]S_k
+            + \tfrac16 R_k[f_k\times]\Delta t_k)\Delta t_k^2\big),\quad
+        J_{pa} = \sum_k \big(J_{va,<k}\Delta t_k - R_k\Gamma_2\Delta t_k^2\big)
+
+    (:math:`J_{\cdot,<k}`: the sums over the samples before ``k``)."""
+    w = gyro - b[:3]
+    f = accel - b[3:]
+    h = dt[:, None]
+    hh = dt[:, None, None]
+    phi = w * h
+    Q = _scan(_qexp(phi))
+    Q = Q / np.linalg.norm(Q, axis=1, keepdims=True)
+    R = dcm_unit(Q)  # (n + 1, 3, 3)
+    a1, b1, a2, b2 = gamma_coefficients(np.sum(phi * phi, axis=1))
+    K = skew(phi)
+    K2 = K @ K
+    eye = np.eye(3)
+    G1 = eye + a1[:, None, None] * K + b1[:, None, None] * K2
+    G2 = 0.5 * eye + a2[:, None, None] * K + b2[:, None, None] * K2
+    Jr = eye - a1[:, None, None] * K + b1[:, None, None] * K2
+    RG1, RG2 = R[:-1] @ G1, R[:-1] @ G2
+    u = np.einsum("nij,nj->ni", RG1, f)
+    wv = np.einsum("nij,nj->ni", RG2, f)
+    V = np.concatenate([np.zeros((1, 3)), np.cumsum(u * h, axis=0)])
+    dp = np.sum(V[:-1] * h + wv * h * h, axis=0)
+    terms = R[1:] @ Jr * hh
+    S = _before(terms)
+    Fk = skew(f)
+    Jvg_k = (skew(u) @ S + 0.5 * R[:-1] @ Fk * hh) * hh
+    Jva_k = -RG1 * hh
+    J = np.zeros((9, 6))
+    J[0:3, 0:3] = -R[-1].T @ terms.sum(axis=0)
+    J[3:6, 0:3] = Jvg_k.sum(axis=0)
+    J[3:6, 3:6] = Jva_k.sum(axis=0)
+    J[6:9, 0:3] = np.sum(_before(Jvg_k) * hh + (skew(wv) @ S + R[:-1] @ Fk * hh / 6.0)
+                         * hh**2, axis=0)
+    J[6:9, 3:6] = np.sum(_before(Jva_k) * hh - RG2 * hh**2, axis=0)
+    return Preintegrated(Q[-1], V[-1], dp, J, np.asarray(b, dtype=float).copy(),
+                         float(dt.sum()), Q)
+
+
+def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Array:
+    r"""States ``X`` (m, 16) through an epoch by its increments (no Earth rate): with
+    :math:`\delta b` each point's mid-epoch biases less ``pre.b``,
+    :math:`q' = q\otimes\Delta q\,\mathrm{Exp}(J_\theta\delta b)`,
+    :math:`v' = v + g\tau + C(q)(\Delta v + J_v\delta b)`,
+    :math:`p' = p + v\tau + \tfrac12 g\tau^2 + C(q)(\Delta p + J_p\delta b)` - the
+    mechanisation itself for the points at ``pre.b``, first order in the bias otherwise."""
+    dg, da = _decays(model, pre.tau)
+    db = np.concatenate([X[:, BG] * np.sqrt(dg), X[:, BA] * np.sqrt(da)], axis=1) - pre.b
+    d = db @ pre.J.T
+    q = hamilton(X[:, Q], hamilton(pre.dq[None], qexp(d[:, :3])))
+    C = dcm_unit(X[:, Q])
+    g, tau = model.gravity, pre.tau
+    Y = X.copy()
+    Y[:, V] = X[:, V] + g * tau + np.einsum("mij,mj->mi", C, pre.dv + d[:, 3:6])
+    Y[:, P] = X[:, P] + X[:, V] * tau + 0.5 * g * tau * tau + np.einsum(
+        "mij,mj->mi", C, pre.dp + d[:, 6:9])
+    Y[:, Q] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    Y[:, BG] *= dg
+    Y[:, BA] *= da
+    return Y
+
+
+def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: InsModel, *,
+                   preintegrated: bool = True) -> Transition:
+    r"""The epoch's prediction ``f(X, None)`` with additive tangent noise along the mean;
+    EKF Jacobian :math:`\Phi`.  Without Earth rate and with ``preintegrated`` the points
+    move by the epoch's increments preintegrated once at the mean's biases
+    (:func:`propagate_preintegrated`), else each point is mechanised (:func:`propagate`)."""
+    dt = np.asarray(dt, dtype=np.float64)
+    if preintegrated and (model.earth_rate is None or not np.any(model.earth_rate)):
+        dg, da = _decays(model, float(np.sum(dt)))
+        pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
+                                                            x_mean[BA] * np.sqrt(da)]))
+        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model,
+                                   hamilton(x_mean[Q][None], pre.q_samples))
+
+        def f(X: Array, u: object) -> Array:
+            return propagate_preintegrated(X, pre, model)
+    else:
+        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model)
+
+        def f(X: Array, u: object) -> Array:
+            return propagate(X, gyro, accel, dt, model)
 
     return Transition(f, Noise(Qe, psd_sqrt(Qe)), additive=True, jacobian=lambda x, u: Phi)

@@ -184,3 +184,58 @@ def test_ins_error_transition_matches_the_mechanisation():
     # the position-velocity-attitude blocks' white-noise parts, to leading order in tau
     assert Qe[3, 3] == pytest.approx(psd.accel_density**2 * tau, rel=0.05)
     assert Qe[9, 9] == pytest.approx(psd.gyro_bias.discrete_variance(tau), rel=1e-3)
+
+
+def test_preintegrated_propagation_is_the_mechanisation_at_the_mean_bias():
+    from nav.ins import preintegrate, propagate_preintegrated
+
+    rng = np.random.default_rng(11)
+    n = 64
+    dt = rng.uniform(0.003, 0.02, n)
+    gyro = rng.normal(0, 0.3, (n, 3))
+    accel = rng.normal(0, 1.0, (n, 3)) + [0, 0, 9.81]
+    psd = datasheet_psd(0.2, 0.05, gyro_bias_instability_deg_h=10.0, gyro_bias_time_s=60.0,
+                        accel_random_walk_mps2_sqrt_h=0.01)
+    model = InsModel(psd, np.array([0, 0, -9.81]))
+    X = np.stack([_state(rng) for _ in range(5)])
+    X[1:, 10:] = X[0, 10:]  # points 0-4 share the biases
+    dg = psd.gyro_bias.decay(dt.sum())
+    pre = preintegrate(gyro, accel, dt, np.concatenate([X[0, 10:13] * np.sqrt(dg),
+                                                        X[0, 13:16]]))
+    exact = propagate(X, gyro, accel, dt, model)
+    fast = propagate_preintegrated(X, pre, model)
+    np.testing.assert_allclose(SPACE.local(exact, fast), 0.0, atol=1e-9)
+    # points whose biases differ: the error is second order in the gyro-bias difference
+    def err(d_gyro: float) -> float:
+        Y = X.copy()
+        Y[:, 10:13] += d_gyro
+        Y[:, 13:16] += 0.05  # the specific force enters linearly: exact
+        return float(np.abs(SPACE.local(propagate(Y, gyro, accel, dt, model),
+                                        propagate_preintegrated(Y, pre, model))).max())
+
+    big, small = err(1e-2), err(1e-3)
+    assert small < 2e-6 and small < 0.1 * big
+
+
+def test_preintegrated_bias_jacobians_match_finite_differences():
+    from nav.ins import preintegrate
+    from nav.quaternion import qconj, qlog, qmul
+
+    rng = np.random.default_rng(12)
+    n = 100
+    dt = rng.uniform(0.005, 0.015, n)
+    gyro = rng.normal(0, 0.3, (n, 3))
+    accel = rng.normal(0, 1.0, (n, 3)) + [0, 0, 9.81]
+    b = np.concatenate([rng.normal(0, 1e-3, 3), rng.normal(0, 0.05, 3)])
+    pre = preintegrate(gyro, accel, dt, b)
+    num = np.empty((9, 6))
+    for i, step in enumerate([1e-6] * 3 + [1e-4] * 3):
+        e = np.zeros(6)
+        e[i] = step
+        up, dn = preintegrate(gyro, accel, dt, b + e), preintegrate(gyro, accel, dt, b - e)
+        num[0:3, i] = (qlog(qmul(qconj(dn.dq), up.dq))) / (2 * step)
+        num[3:6, i] = (up.dv - dn.dv) / (2 * step)
+        num[6:9, i] = (up.dp - dn.dp) / (2 * step)
+    # the Gamma series to their first terms: second order in the interval
+    np.testing.assert_allclose(pre.J, num, atol=1e-4 * np.abs(num).max())
+    np.testing.assert_allclose(pre.J[:, 3:], num[:, 3:], atol=1e-6)  # linear in b_a
