@@ -11,16 +11,18 @@ ENU/FLU or NED/FRD, units, the IMU noise in datasheet units, GNSS σ, site, prio
 alignment, filters).  The CSV: one header line naming the columns (any order), then one
 row per IMU reading, comma-separated, ``#`` lines skipped::
 
-    t,gx,gy,gz,ax,ay,az,px,py,pz,vx,vy,vz,sp,sv
-    0.00,0.001,-0.002,0.010,0.12,-0.05,9.79,0.0,0.0,0.0,,,,,
-    0.01,0.001,-0.002,0.011,0.13,-0.04,9.80,,,,,,,,
+    t,gx,gy,gz,ax,ay,az,px,py,pz,vx,vy,vz,sp,sv,tx,ty,tz
+    0.00,0.001,-0.002,0.010,0.12,-0.05,9.79,0.0,0.0,0.0,,,,,,,,
+    0.01,0.001,-0.002,0.011,0.13,-0.04,9.80,,,,,,,,,,,
 
 ``t`` (s, strictly increasing), gyro ``gx gy gz`` and specific force ``ax ay az`` in the
 sidecar's body frame and units, each the average over ``(t_prev, t]`` (the first row's
 reading is not used); a GNSS fix at ``t`` where ``px py pz`` (m, the navigation frame, a
 local level frame whose origin the user chooses) and/or ``vx vy vz`` (m/s) are filled,
 with optional per-fix σ ``sp`` (m) and ``sv`` (m/s); empty fields elsewhere.  Position
-columns are required; velocity columns optional.
+columns are required; velocity columns optional.  Optional truth ``tx ty tz`` (m, the
+navigation frame) on the fix rows adds the usual scores against truth (position RMSE and
+NEES at the fix epochs).
 
 What runs
 ---------

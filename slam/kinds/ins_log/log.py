@@ -68,7 +68,8 @@ class InsLog:
     ``t`` (K,) reading stamps (s), ``gyro`` (K, 3) rad/s, ``accel`` (K, 3) m/s²;
     ``fix_t`` (F,), ``fix_p`` (F, 3) or None, ``fix_v`` (F, 3) or None, their σ
     ``fix_sp`` / ``fix_sv`` (F, 3); ``settings`` the log's stated (or default) settings
-    (:class:`slam.kinds.ins_log.settings.LogSettings`); ``source`` where it was read."""
+    (:class:`slam.kinds.ins_log.settings.LogSettings`); ``source`` where it was read;
+    ``truth_p`` (F, 3) the true position at the fixes (NaN where not given) or None."""
 
     t: Array
     gyro: Array
@@ -83,6 +84,7 @@ class InsLog:
     name: str
     dropped_fixes: int = 0
     notes: tuple[str, ...] = field(default=())
+    truth_p: Array | None = None
 
     @property
     def n_fixes(self) -> int:

@@ -22,7 +22,7 @@ from slam.kinds.recorded.log import LogFormatError
 #: Fewest readings and fixes a log must hold.
 MIN_READINGS, MIN_FIXES = 2, 3
 CSV_REQUIRED = ("t", "gx", "gy", "gz", "ax", "ay", "az")
-CSV_OPTIONAL = ("px", "py", "pz", "vx", "vy", "vz", "sp", "sv")
+CSV_OPTIONAL = ("px", "py", "pz", "vx", "vy", "vz", "sp", "sv", "tx", "ty", "tz")
 
 __all__ = ["bundled_kitti", "read_csv", "read_kitti"]
 
@@ -103,8 +103,8 @@ def _safe_bundled() -> Path | None:
         return None
 
 
-def _finish(t, gyro, accel, fix_t, fix_p, fix_v, fix_sp, fix_sv, settings, source, name
-            ) -> InsLog:
+def _finish(t, gyro, accel, fix_t, fix_p, fix_v, fix_sp, fix_sv, settings, source, name,
+            truth_p=None) -> InsLog:
     """Bounds checks, the fixes inside the readings' span, and the log value."""
     if len(t) < MIN_READINGS:
         raise LogFormatError(source, None, f"{len(t)} IMU readings: at least {MIN_READINGS}")
@@ -120,8 +120,11 @@ def _finish(t, gyro, accel, fix_t, fix_p, fix_v, fix_sp, fix_sv, settings, sourc
                              f"time span: at least {MIN_FIXES}")
     if t[-1] - t[0] > 1e6:
         raise LogFormatError(source, None, "longer than 1e6 s")
+    if truth_p is not None and np.any(np.abs(truth_p[np.isfinite(truth_p)]) > 1e8):
+        raise LogFormatError(source, None, "truth positions beyond 1e8 m")
     return InsLog(t, gyro, accel, fix_t[keep], sel(fix_p), sel(fix_v), sel(fix_sp),
-                  sel(fix_sv), settings, source, name, int((~keep).sum()))
+                  sel(fix_sv), settings, source, name, int((~keep).sum()),
+                  truth_p=sel(truth_p))
 
 
 def _to_enu_flu(v: np.ndarray, frame: str) -> np.ndarray:
@@ -150,13 +153,14 @@ def read_csv(path: Path, filters: tuple[str, ...] | None = None) -> InsLog:
         raise LogFormatError(source, head_line, f"{what}; columns: {', '.join(CSV_REQUIRED)} "
                              f"(required), {', '.join(CSV_OPTIONAL)} (optional)")
     missing = [c for c in CSV_REQUIRED if c not in cols]
-    for group in (("px", "py", "pz"), ("vx", "vy", "vz")):
+    for group in (("px", "py", "pz"), ("vx", "vy", "vz"), ("tx", "ty", "tz")):
         if any(c in cols for c in group) and not all(c in cols for c in group):
             missing.append("/".join(group))
     if missing:
         raise LogFormatError(source, head_line, f"missing column {missing[0]}")
-    if "px" not in cols and "vx" not in cols:
-        raise LogFormatError(source, head_line, "no GNSS columns (px,py,pz and/or vx,vy,vz)")
+    if "px" not in cols:
+        raise LogFormatError(source, head_line, "no GNSS position columns px,py,pz (required; "
+                             "vx,vy,vz optional)")
     if "vx" in cols and settings.velocity_sigma_mps is None and "sv" not in cols:
         raise LogFormatError(source, None, "velocity columns need [gnss] velocity_sigma_mps "
                              "in the sidecar or an sv column")
@@ -190,6 +194,11 @@ def read_csv(path: Path, filters: tuple[str, ...] | None = None) -> InsLog:
         return data[:, [idx[c] for c in names]] if names[0] in idx else None
 
     pos, vel = block(("px", "py", "pz")), block(("vx", "vy", "vz"))
+    truth = block(("tx", "ty", "tz"))
+    if truth is not None:
+        partial = np.flatnonzero(np.isfinite(truth).any(axis=1) & ~np.isfinite(truth).all(axis=1))
+        if len(partial):
+            raise LogFormatError(source, where[int(partial[0])], "tx,ty,tz: all three or none")
     has = np.zeros(len(t), dtype=bool)
     for b, name in ((pos, "px,py,pz"), (vel, "vx,vy,vz")):
         if b is None:
@@ -227,4 +236,6 @@ def read_csv(path: Path, filters: tuple[str, ...] | None = None) -> InsLog:
 
     sp = sigma("sp", settings.position_sigma_m) if pos is not None else None
     sv = sigma("sv", settings.velocity_sigma_mps) if vel is not None else None
-    return _finish(t, gyro, accel, t[rows], fix_p, fix_v, sp, sv, settings, source, path.stem)
+    tp = None if truth is None else _to_enu_flu(truth[rows], settings.navigation)
+    return _finish(t, gyro, accel, t[rows], fix_p, fix_v, sp, sv, settings, source, path.stem,
+                   tp)

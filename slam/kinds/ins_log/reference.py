@@ -94,8 +94,11 @@ def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
     isam.update(graph, vals)
     F = log.n_fixes
     E = F - a
+    arm = np.asarray(log.settings.lever_arm_m, float)
     p_on, P_on = np.full((E, 3), np.nan), np.full((E, 3, 3), np.nan)
+    f_on, f_sm = np.full((E, 3), np.nan), np.full((E, 3), np.nan)
     p_on[0], P_on[0] = x0[0:3], P0[0:3, 0:3]
+    f_on[0] = vals.atPose3(X(a)).transformFrom(arm)
     state = (vals.atPose3(X(a)), vals.atVector(V(a)), vals.atConstantBias(B(a)))
     scored = roles != USED
     for i in range(a + 1, F):
@@ -115,6 +118,7 @@ def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
         pose = isam.calculateEstimatePose3(X(i))
         state = (pose, isam.calculateEstimateVector(V(i)), isam.calculateEstimateConstantBias(B(i)))
         p_on[i - a] = pose.translation()
+        f_on[i - a] = pose.transformFrom(arm)
         if scored[i]:
             P_on[i - a] = _position_cov(isam, pose, X(i))
     online_s = time.process_time() - c0
@@ -125,12 +129,15 @@ def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
     for i in range(a, F):
         pose = est.atPose3(X(i))
         p_sm[i - a] = pose.translation()
+        f_sm[i - a] = pose.transformFrom(arm)
         if scored[i]:
             P_sm[i - a] = _position_cov(isam, pose, X(i))
     smooth_s = time.process_time() - c0
     empty = np.zeros(0)
-    return (EstimatorTrack(ONLINE, p_on, P_on, empty, empty.astype(np.int64), 3, online_s),
-            EstimatorTrack(SMOOTHED, p_sm, P_sm, empty, empty.astype(np.int64), 3, smooth_s))
+    return (EstimatorTrack(ONLINE, p_on, P_on, empty, empty.astype(np.int64), 3, online_s,
+                           None, f_on),
+            EstimatorTrack(SMOOTHED, p_sm, P_sm, empty, empty.astype(np.int64), 3, smooth_s,
+                           None, f_sm))
 
 
 def smooth(log: InsLog, a: int, x0: Array, P0: Array, roles: Array

@@ -15,9 +15,22 @@ def _outage_head(summary: dict[str, Any]) -> list[str]:
     return [f"drift {s:g}+{n:g} s\n(m)" for s, n in summary.get("outages") or []]
 
 
+def _has_truth(summary: dict[str, Any]) -> bool:
+    return any("truth" in e for _, e in estimator_entries(summary))
+
+
 def columns(summary: dict[str, Any]) -> tuple[str, ...]:
+    truth = ("truth\nRMSE (m)", "truth\nNEES/3") if _has_truth(summary) else ()
     return ("estimator", "held-out\nRMSE (m)", "held-out\nhoriz (m)", "held-out\nerr²/σ²",
-            "NIS/dof", "NIS windows\nin band", *_outage_head(summary), "CPU\n(s)", "diverged")
+            "NIS/dof", "NIS windows\nin band", *_outage_head(summary), *truth, "CPU\n(s)",
+            "diverged")
+
+
+def _truth(e: dict[str, Any]) -> list[str]:
+    t = e.get("truth")
+    if t is None:
+        return []
+    return [num(t.get("rmse_m"), ".3f"), num(t.get("nees_per_dof"), ".2f")]
 
 
 def _row(name: str, e: dict[str, Any]) -> list[str]:
@@ -27,7 +40,8 @@ def _row(name: str, e: dict[str, Any]) -> list[str]:
     drifts = [num(o.get("drift_m"), ".2f") for o in e.get("outages") or []]
     return [name, num(h.get("rmse_m"), ".3f"), num(h.get("rmse_horizontal_m"), ".3f"),
             num(h.get("mean_normalised_error"), ".2f"), num(nis.get("mean_nis_per_dof"), ".2f"),
-            band, *drifts, num(e.get("cpu_s"), ".2f"), "yes" if e.get("diverged") else "no"]
+            band, *drifts, *_truth(e), num(e.get("cpu_s"), ".2f"),
+            "yes" if e.get("diverged") else "no"]
 
 
 def rows(summary: dict[str, Any]) -> list[list[str]]:

@@ -25,7 +25,8 @@ from nav.euler import euler_zyx_to_q
 from nav.gnss import gnss_measurement
 from nav.gravity import gravity_vector
 from nav.ins import LAYOUT, SPACE, InsModel, ins_transition
-from nav.strapdown import earth_rate_enu
+from nav.quaternion import qto_dcm
+from nav.strapdown import dcm_unit, earth_rate_enu
 from slam.kinds.ins_log.log import InsLog
 from slam.kinds.ins_log.world import SCORE_FROM, InsLogWorld, Scoring
 from slam.results import REFERENCE, RunOutcome
@@ -38,7 +39,7 @@ USED, WITHHELD, DROPPED = 0, 1, 2
 
 @dataclass(frozen=True)
 class EstimatorTrack:
-    """An estimator's position ``p`` (E, 3) and covariance ``P`` (E, 3, 3) at the fix epochs
+    """An estimator's IMU position ``p`` (E, 3) and covariance ``P`` (E, 3, 3) at the fix epochs
     ``a .. F-1`` (the alignment fix first), its NIS per update with the update's fix,
     its CPU seconds and its failure (``None``)."""
 
@@ -50,6 +51,12 @@ class EstimatorTrack:
     nis_dof: int
     cpu_s: float
     failure: str | None = None
+    p_fix: Array | None = None
+    """The position the fixes measure (the antenna at the lever arm; ``p`` without one)."""
+
+    @property
+    def at_fix(self) -> Array:
+        return self.p if self.p_fix is None else self.p_fix
 
 
 @dataclass(frozen=True)
@@ -96,7 +103,9 @@ def alignment(log: InsLog, roles: Array) -> tuple[int, Array, Array, str]:
     roll, pitch = level(f_mean)
     yaw = track_heading(P[a - 1], P[a])
     v0 = log.fix_v[a] if log.fix_v is not None else d / dt
-    x0 = np.concatenate([P[a], v0, euler_zyx_to_q(roll, pitch, yaw), np.zeros(6)])
+    q0 = euler_zyx_to_q(roll, pitch, yaw)
+    p0 = P[a] - qto_dcm(q0) @ np.asarray(s.lever_arm_m, dtype=float)  # the IMU, not the antenna
+    x0 = np.concatenate([p0, v0, q0, np.zeros(6)])
     sp = log.fix_sp[a] if log.fix_sp is not None else np.full(3, s.position_sigma_m)
     sig = np.concatenate([sp, np.full(3, s.velocity0_sigma_mps),
                           [s.roll_pitch_sigma_rad] * 2, [s.heading_sigma_rad],
@@ -114,15 +123,21 @@ def model_of(log: InsLog) -> InsModel:
     return InsModel(s.psd, gravity_vector(s.latitude_rad, s.height_m), er)
 
 
-def measurement_of(log: InsLog, i: int) -> tuple[Any, Array]:
-    """Fix ``i``'s GNSS measurement and its value."""
+def measurement_of(log: InsLog, i: int, cache: dict | None = None) -> tuple[Any, Array]:
+    """Fix ``i``'s GNSS measurement and its value (``cache``: the models built so far,
+    by their σ)."""
     s = log.settings
     arm = s.lever_arm_m if any(s.lever_arm_m) else None
     sp = None if log.fix_sp is None else log.fix_sp[i]
     sv = None if log.fix_sv is None else log.fix_sv[i]
     if sv is not None and arm is not None:
         raise ValueError("a GNSS velocity with a lever arm is not supported on a log")
-    meas = gnss_measurement(LAYOUT, position_sigma=sp, velocity_sigma=sv, lever_arm=arm)
+    key = (None if sp is None else tuple(sp), None if sv is None else tuple(sv))
+    meas = None if cache is None else cache.get(key)
+    if meas is None:
+        meas = gnss_measurement(LAYOUT, position_sigma=sp, velocity_sigma=sv, lever_arm=arm)
+        if cache is not None:
+            cache[key] = meas
     z = np.concatenate([v[i] for v in (log.fix_p, log.fix_v) if v is not None])
     return meas, z
 
@@ -137,6 +152,7 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
     model = model_of(log)
     E = log.n_fixes - a
     rec = BeliefRecorder.empty(E, 16, 15)
+    models: dict = {}
 
     def transition(e: int, b: Belief):
         g, f, h = log.epochs.of(a + e)
@@ -146,7 +162,7 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
         i = a + e
         if roles[i] != USED:
             return b, []
-        meas, z = measurement_of(log, i)
+        meas, z = measurement_of(log, i, models)
         post, inn = flt.update(b, meas, z)
         return post, [inn]
 
@@ -158,8 +174,14 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
     except ValueError as exc:  # a model the filter refuses (e.g. a non-finite covariance)
         failure, nis, nis_fix = f"ValueError: {exc}", np.zeros(0), np.zeros(0, np.int64)
     dof = 3 * sum(v is not None for v in (log.fix_p, log.fix_v))
-    return EstimatorTrack(name, rec.means[:, :3], rec.covs[:, :3, :3], nis, nis_fix, dof,
-                          time.process_time() - c0, failure)
+    cpu = time.process_time() - c0
+    arm = np.asarray(log.settings.lever_arm_m, dtype=float)
+    p_fix = None
+    if np.any(arm):
+        with np.errstate(invalid="ignore"):
+            p_fix = rec.means[:, :3] + dcm_unit(rec.means[:, 6:10]) @ arm
+    return EstimatorTrack(name, rec.means[:, :3], rec.covs[:, :3, :3], nis, nis_fix, dof, cpu,
+                          failure, p_fix)
 
 
 def run_once(world: InsLogWorld, run: int, seed_seq: np.random.SeedSequence,

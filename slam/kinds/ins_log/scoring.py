@@ -82,6 +82,26 @@ def nis_warning(name: str, w: dict[str, Any]) -> str | None:
             f"the stated noise looks {way}")
 
 
+def truth_scores(truth: np.ndarray, tr: EstimatorTrack) -> dict[str, Any]:
+    """With truth (the CSV's ``tx ty tz`` at the fixes): the position RMSE over every fix
+    epoch with a true position, and the mean position NEES / 3 where the estimator has a
+    covariance (the smoother only at the scored fixes)."""
+    ok = np.all(np.isfinite(truth), axis=1) & np.all(np.isfinite(tr.p), axis=1)
+    if not ok.any():
+        return {"epochs": 0}
+    e = tr.p[ok] - truth[ok]
+    P = tr.P[ok]
+    has = np.all(np.isfinite(P), axis=(1, 2))
+    nees = [float(x @ np.linalg.solve(C, x)) / 3.0 for x, C in zip(e[has], P[has])]
+    out = {"epochs": int(ok.sum()), "rmse_m": _f(float(np.sqrt(np.mean(np.sum(e**2, 1))))),
+           "final_error_m": _f(float(np.linalg.norm(e[-1])))}
+    out["nees_per_dof"] = _f(float(np.mean(nees))) if nees else None
+    out["nees_epochs"] = len(nees)
+    if not nees:
+        out["nees_per_dof_reason"] = "no position covariance at these epochs"
+    return out
+
+
 def score_track(log: Any, tr: EstimatorTrack, a: int, roles: np.ndarray, scoring: Scoring
                 ) -> dict[str, Any]:
     """One estimator's values (module docstring); positions are ``tr.p[i - a]``."""
@@ -91,7 +111,7 @@ def score_track(log: Any, tr: EstimatorTrack, a: int, roles: np.ndarray, scoring
     held = heldout_indices(roles)
     held = held[held >= a]
     if len(held):
-        e = tr.p[held - a] - log.fix_p[held]
+        e = tr.at_fix[held - a] - log.fix_p[held]
         R = np.stack([np.diag(s**2) for s in log.fix_sp[held]])
         with np.errstate(invalid="ignore"):
             nees = np.array([float(x @ np.linalg.solve(C, x)) / 3.0 if np.all(np.isfinite(C))
@@ -109,7 +129,7 @@ def score_track(log: Any, tr: EstimatorTrack, a: int, roles: np.ndarray, scoring
         if j is None or j < a:
             entry["reason"] = "no fix inside the window after the alignment"
         else:
-            e = tr.p[j - a] - log.fix_p[j]
+            e = tr.at_fix[j - a] - log.fix_p[j]
             sig = float(np.sqrt(np.trace(tr.P[j - a]))) if np.all(np.isfinite(tr.P[j - a])) \
                 else math.nan
             entry.update({"fix": j, "drift_m": _f(float(np.linalg.norm(e))),
@@ -118,6 +138,8 @@ def score_track(log: Any, tr: EstimatorTrack, a: int, roles: np.ndarray, scoring
         ends.append(entry)
     if ends:
         out["outages"] = ends
+    if log.truth_p is not None:
+        out["truth"] = truth_scores(log.truth_p[a:], tr)
     if tr.name not in (ONLINE, SMOOTHED):
         out["nis"] = nis_windows(tr.nis, tr.nis_dof)
     explain_nulls(out, f"not finite: the estimator failed ({tr.failure})" if tr.failure

@@ -151,3 +151,42 @@ def test_missing_sidecar_and_bad_options(tmp_path):
     path.with_suffix(".toml").unlink()
     with pytest.raises(LogFormatError, match="sidecar"):
         open_log(path)
+
+
+def test_truth_columns_give_the_usual_scores(turn_log):
+    from slam.kinds.ins_log.report import text_table
+    from slam.kinds.ins_log.run import summarize
+
+    w = open_log(turn_log, holdout=5)
+    assert w.log.truth_p is not None
+    o = run_once(w, 0, None, ["ekf"])
+    t = o.scores["ekf"].values["truth"]
+    assert t["epochs"] == w.log.n_fixes - 1 and t["rmse_m"] < 0.05
+    assert t["nees_epochs"] == t["epochs"]
+    assert "truth" in text_table(summarize(w, [o], ["ekf"], 1, 0))
+
+
+def test_gnss_velocity_fixes_are_six_dimensional_updates(tmp_path):
+    w = open_log(write_log(tmp_path, velocity=True), holdout=5)
+    assert w.log.fix_v is not None and w.log.fix_sv[0, 0] == 0.05
+    o = run_once(w, 0, None, ["ekf", "srckf"], reference=True)
+    for name in ("ekf", "srckf", "gtsam-online"):
+        assert o.scores[name].values["heldout"]["rmse_m"] < 0.05, name
+    assert o.scores["ekf"].values["nis"]["windows"] == 1  # 71 updates: one window of 50
+
+
+def test_a_stated_lever_arm_is_used(tmp_path):
+    arm = (2.0, 0.5, 1.0)
+    with_arm = open_log(write_log(tmp_path, "arm", lever_arm=arm), holdout=5)
+    side = tmp_path / "arm.toml"
+    side.write_text(side.read_text().replace(f"lever_arm_m = {list(arm)}\n", ""))
+    without = open_log(tmp_path / "arm.csv", holdout=5)
+    rmse = {}
+    for label, w in (("with", with_arm), ("without", without)):
+        o = run_once(w, 0, None, ["ekf"])
+        rmse[label] = (o.scores["ekf"].values["truth"]["rmse_m"],
+                       o.scores["gtsam"].values["truth"]["rmse_m"],
+                       o.scores["ekf"].values["heldout"]["rmse_m"],
+                       o.scores["gtsam-online"].values["heldout"]["rmse_m"])
+    assert max(rmse["with"]) < 0.05  # the IMU against truth, the antenna against the fixes
+    assert rmse["without"][0] > 1.0  # the antenna's offset is taken for the IMU's
