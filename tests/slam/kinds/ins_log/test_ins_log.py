@@ -190,3 +190,15 @@ def test_a_stated_lever_arm_is_used(tmp_path):
                        o.scores["gtsam-online"].values["heldout"]["rmse_m"])
     assert max(rmse["with"]) < 0.05  # the IMU against truth, the antenna against the fixes
     assert rmse["without"][0] > 1.0  # the antenna's offset is taken for the IMU's
+
+
+def test_an_imu_gap_is_held_and_counted(tmp_path):
+    path = write_log(tmp_path)
+    lines = path.read_text().splitlines()
+    keep = [lines[0]] + [ln for ln in lines[1:]
+                         if not 40.0 < float(ln.split(",")[0]) < 42.5 or ln.split(",")[7]]
+    path.write_text("\n".join(keep) + "\n")
+    w = open_log(path, holdout=5)
+    assert w.log.gaps >= 2  # 40 -> 41 and 41 -> 42 s: one reading held over each second
+    o = run_once(w, 0, None, ["ekf"], reference=False)
+    assert o.scores["ekf"].values["heldout"]["rmse_m"] < 0.05  # constant readings: exact
