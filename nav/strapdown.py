@@ -253,23 +253,42 @@ def prefix_products(E: Array, q0: Array | None = None) -> Array:
     return out
 
 
-def attitudes(q: ArrayLike, gyro: ArrayLike, dt: float, earth_rate: ArrayLike | None = None
-              ) -> Array:
+def _step(dt: float | ArrayLike, n: int) -> float | Array:
+    """``dt`` as a float (one interval for every sample) or as (n, 1) per-sample intervals."""
+    if np.ndim(dt) == 0:
+        return float(dt)  # type: ignore[arg-type]
+    d = np.asarray(dt, dtype=np.float64).reshape(-1)
+    if d.shape[0] != n:
+        raise ValueError(f"dt has {d.shape[0]} intervals for {n} samples")
+    return d[:, None]
+
+
+def _elapsed(step: float | Array, n: int) -> Array:
+    """Times of the samples from the start, (n + 1,): ``k dt`` or the running sum."""
+    if isinstance(step, float):
+        return np.arange(n + 1) * step
+    return np.concatenate([[0.0], np.cumsum(step[:, 0])])
+
+
+def attitudes(q: ArrayLike, gyro: ArrayLike, dt: float | ArrayLike,
+              earth_rate: ArrayLike | None = None) -> Array:
     """The attitudes of :func:`mechanise` alone: ``q`` (4,) through ``gyro`` (n, 3),
     returned at every sample, (n + 1, 4); a batch ``q`` (..., 4) with ``gyro`` (..., n, 3)
-    gives (..., n + 1, 4)."""
+    gives (..., n + 1, 4).  ``dt``: one interval or (n,) per-sample intervals."""
     gyro = np.asarray(gyro, dtype=np.float64)
     n = gyro.shape[-2]
-    Q = prefix_products(_qexp(gyro * dt), np.asarray(q, dtype=np.float64))
+    step = _step(dt, n)
+    Q = prefix_products(_qexp(gyro * step), np.asarray(q, dtype=np.float64))
     if earth_rate is not None and np.any(earth_rate):
-        nav = qexp(-np.arange(n + 1)[:, None] * dt * np.asarray(earth_rate, dtype=np.float64))
+        nav = qexp(-_elapsed(step, n)[:, None] * np.asarray(earth_rate, dtype=np.float64))
         Q = hamilton(nav, Q)
     return Q / np.linalg.norm(Q, axis=-1, keepdims=True)
 
 
 def mechanise(p: ArrayLike, v: ArrayLike, q: ArrayLike, gyro: ArrayLike, accel: ArrayLike,
-              dt: float, gravity: ArrayLike, earth_rate: ArrayLike | None = None, *,
-              all_samples: bool = False) -> tuple[Array, Array, Array]:
+              dt: float | ArrayLike, gravity: ArrayLike,
+              earth_rate: ArrayLike | None = None, *, all_samples: bool = False
+              ) -> tuple[Array, Array, Array]:
     r"""Carry states through ``n`` IMU samples (module docstring for the scheme).
 
     Parameters
@@ -279,8 +298,9 @@ def mechanise(p: ArrayLike, v: ArrayLike, q: ArrayLike, gyro: ArrayLike, accel: 
     gyro, accel : (n, 3) or (m, n, 3) arrays
         Bias-corrected body angular rate (rad/s) and specific force (m/s²) per sample,
         shared by every point or one series per point.
-    dt : float
-        Sample interval (s).
+    dt : float or (n,) array
+        Sample interval (s), one for every sample or one per sample (a log's time stamps:
+        the model holds each reading over its own interval).
     gravity : (3,) array
         :math:`g^n` (e.g. :func:`gravity_enu`).
     earth_rate : (3,) array or None
@@ -305,31 +325,34 @@ def mechanise(p: ArrayLike, v: ArrayLike, q: ArrayLike, gyro: ArrayLike, accel: 
     if wie is not None and not np.any(wie):
         wie = None
 
-    phi = np.broadcast_to(gyro * dt, (m, n, 3))
+    step = _step(dt, n)  # a float, or (n, 1) per-sample intervals
+    phi = np.broadcast_to(gyro * step, (m, n, 3))
     f = np.broadcast_to(accel, (m, n, 3))
-    # attitudes at the start of every interval: Q_k = Exp(-w_ie k dt) q E_0 ... E_{k-1}
+    # attitudes at the start of every interval: Q_k = Exp(-w_ie t_k) q E_0 ... E_{k-1}
     Q = prefix_products(_qexp(phi), q)  # (m, n + 1, 4)
     if wie is not None:
-        nav = qexp(-np.arange(n + 1)[:, None] * dt * wie)  # (n + 1, 4)
+        nav = qexp(-_elapsed(step, n)[:, None] * wie)  # (n + 1, 4)
         Q = hamilton(nav[None], Q)
     Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
     g1, g2 = _apply_gammas(phi, f)
     C = dcm_unit(Q[:, :n])  # (m, n, 3, 3)
-    dv_f = np.einsum("mnij,mnj->mni", C, g1) * dt
-    dp_f = np.einsum("mnij,mnj->mni", C, g2) * (dt * dt)
+    dv_f = np.einsum("mnij,mnj->mni", C, g1) * step
+    dp_f = np.einsum("mnij,mnj->mni", C, g2) * (step * step)
 
     if wie is None:
-        dv = dv_f + g * dt
+        dv = dv_f + g * step
         V = np.concatenate([v[:, None, :], v[:, None, :] + np.cumsum(dv, axis=1)], axis=1)
-        dp = V[:, :n] * dt + dp_f + 0.5 * g * dt * dt
+        dp = V[:, :n] * step + dp_f + 0.5 * g * step * step
     else:
         V = np.empty((m, n + 1, 3))
         V[:, 0] = v
         dp = np.empty((m, n, 3))
+        steps = np.broadcast_to(step, (n, 1))
         for k in range(n):
+            h = steps[k]
             a = g - 2.0 * _cross(wie, V[:, k])
-            V[:, k + 1] = V[:, k] + dv_f[:, k] + a * dt
-            dp[:, k] = V[:, k] * dt + dp_f[:, k] + 0.5 * a * dt * dt
+            V[:, k + 1] = V[:, k] + dv_f[:, k] + a * h
+            dp[:, k] = V[:, k] * h + dp_f[:, k] + 0.5 * a * h * h
     if all_samples:
         Pp = np.concatenate([p[:, None, :], p[:, None, :] + np.cumsum(dp, axis=1)], axis=1)
         return Pp, V, Q

@@ -28,37 +28,9 @@ from typing import Any
 
 import click
 
+from slam.cli_errors import InputError, Interrupted, clean_message  # noqa: F401
+
 ALL_MODES = ("joint", "local")
-_LONG_TOKEN = re.compile(r"\S{161,}")
-
-
-def clean_message(text: str, limit: int = 2000) -> str:
-    """``text`` as one safe terminal line: control and format characters (newlines, a
-    right-to-left override, ...) escaped, tokens over 160 characters cut in the middle,
-    the whole cut to ``limit`` characters."""
-    out = "".join(ch if ch.isprintable() else
-                  (f"\\x{ord(ch):02x}" if ord(ch) < 0x100 else f"\\u{ord(ch):04x}"
-                   if ord(ch) < 0x10000 else f"\\U{ord(ch):08x}") for ch in text)
-    out = _LONG_TOKEN.sub(lambda m: f"{m[0][:100]}...[{len(m[0])} characters]..."
-                          f"{m[0][-40:]}", out)
-    return out if len(out) <= limit else out[:limit] + f"...[{len(out)} characters]"
-
-
-class InputError(click.ClickException):
-    """Bad input from the user: exit code 2, one line, nothing half-written."""
-
-    exit_code = 2
-
-    def show(self, file=None) -> None:
-        click.echo(f"error: {clean_message(self.format_message())}", err=True, file=file)
-
-
-class Interrupted(InputError):
-    """Ctrl-C (exit 130) or SIGTERM (143): the runs stopped, nothing half-written."""
-
-    def __init__(self, signum: int = signal.SIGINT) -> None:
-        super().__init__("interrupted")
-        self.exit_code = 128 + int(signum)
 
 
 class _Command(click.Command):
@@ -253,9 +225,17 @@ def _stop_signals() -> Iterator[dict[str, int]]:
 @click.option("--log", "log_file", metavar="FILE",
               help="Run the filters and the GTSAM smoother on a recorded log instead of a "
                    "world: GTSAM's planar text format (ODOMETRY/LANDMARK lines, e.g. "
-                   "victoria_park.txt; scored against the smoother), or an attitude log in "
+                   "victoria_park.txt; scored against the smoother), an attitude log in "
                    "GTSAM's EqFdata.csv layout (`--log eqf`: the file the gtsam wheel ships; "
-                   "scored against its truth and the AHRS smoother).")
+                   "scored against its truth and the AHRS smoother), or an IMU + GNSS log: "
+                   "'kitti' (GTSAM's bundled KITTI drive) or FILE.csv with its sidecar "
+                   "FILE.toml (layout: python -m pydoc slam.kinds.ins_log).")
+@click.option("--holdout", type=int, metavar="K",
+              help="IMU + GNSS logs: withhold every K-th GNSS fix from every estimator and "
+                   "score the position error there (from fix 60).")
+@click.option("--outage", "outages", multiple=True, metavar="START:LENGTH",
+              help="IMU + GNSS logs: drop every GNSS fix from START for LENGTH seconds (from "
+                   "the first IMU stamp) and score the drift at the window's end; repeatable.")
 @click.option("--tum", "tum", type=click.Choice(("run0", "all")), default="run0",
               show_default=True,
               help="TUM trajectory files (and covariance sidecars) of run 0, or of every run "
@@ -264,14 +244,15 @@ def _stop_signals() -> Iterator[dict[str, int]]:
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
             no_plots: bool, mode: str | None, executor: str, log_file: str | None,
-            tum: str) -> None:
+            holdout: int | None = None, outages: tuple[str, ...] = (),
+            tum: str = "run0") -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor, tum == "all")
+                 caught, executor, tum == "all", holdout, outages)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -279,11 +260,16 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
-         executor: str = "batched", tum_all: bool = False) -> None:
+         executor: str = "batched", tum_all: bool = False, holdout: int | None = None,
+         outages: tuple[str, ...] = ()) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
+    if log_file is None and (holdout is not None or outages):
+        raise InputError(f"{'--holdout' if holdout is not None else '--outage'} applies to "
+                         "an IMU + GNSS log only (--log kitti or --log FILE.csv)")
     if log_file is not None:
-        w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
-        workers, own_mode = 1, None if mode else w.filters.mode
+        w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode,
+                            holdout, outages)
+        workers, own_mode = 1, None if mode else getattr(w.filters, "mode", None)
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
     _load_kind(kind, caught, plots=not no_plots)
@@ -361,25 +347,16 @@ def _open_world(name: str, mode: str | None):
 
 def _open_log(log_file: str, world: str | None, filters: str | None, runs: int | None,
               seed: int | None, workers: int | None, scheduler: str | None,
-              mode: str | None):
-    """``--log FILE``: the log as a one-run world of the recorded-log kind."""
-    from slam.kinds.recorded.log import LogFormatError
-    from slam.logs import resolve_log
-    from slam.registry import open_log
-    from worlds import WorldError
+              mode: str | None, holdout: int | None = None, outages: tuple[str, ...] = ()):
+    """``--log FILE``: the log as a one-run world (:func:`slam.logs.open_recorded`)."""
+    from slam.logs import open_recorded
 
     for given, opt in ((world, "WORLD"), (runs, "--runs"), (seed, "--seed"),
                        (workers, "--workers"), (scheduler, "--scheduler")):
         if given is not None:
             raise InputError(f"{opt} does not apply to --log (a recorded log is one run)")
-    kind, path = resolve_log(log_file)
-    if mode is not None and not kind.modes:
-        raise InputError(f"--mode {mode}: a {kind.name} log has no filter modes")
-    try:
-        w = open_log(path, _parse_filters(filters, (), kind.filters) or None, mode, kind)
-    except (LogFormatError, WorldError) as exc:
-        raise InputError(f"--log {exc}") from None
-    return w, kind
+    return open_recorded(log_file, lambda kind: _parse_filters(filters, (), kind.filters),
+                         mode, holdout, outages)
 
 
 def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: str | None,

@@ -20,6 +20,7 @@ from slam.kinds import (
     attitude_log,
     drone,
     fixed_wing,
+    ins_log,
     planar,
     recorded,
     ship,
@@ -48,7 +49,7 @@ def register(kind: Kind) -> Kind:
 
 
 for _k in (planar.KIND, drone.KIND, attitude.KIND, recorded.KIND, ship.KIND, spinning.KIND,
-           alignment.KIND, fixed_wing.KIND, attitude_log.KIND):
+           alignment.KIND, fixed_wing.KIND, attitude_log.KIND, ins_log.KIND):
     register(_k)
 
 PLUGIN_KINDS = "navfilters.kinds"
@@ -86,9 +87,13 @@ def get_kind(name: str) -> Kind:
     return KINDS[name]
 
 
-def log_kind() -> Kind:
-    """The kind that reads recorded logs (``slam run --log``)."""
-    return next(k for k in KINDS.values() if k.open_log is not None)
+def log_kind(path: str | os.PathLike[str] | None = None) -> Kind:
+    """The kind that reads the recorded log ``path`` (``slam run --log``): the IMU + GNSS
+    log kind for ``kitti``, a ``.csv`` or a folder of the KITTI files
+    (:func:`slam.kinds.ins_log.reads`), else the planar-log kind (also without ``path``)."""
+    if path is not None and ins_log.reads(path):
+        return KINDS[ins_log.KIND.name]
+    return KINDS[recorded.KIND.name]
 
 
 def _world_kind(data: Any, source: str) -> Kind:
@@ -138,11 +143,13 @@ def check_work(world: Any, data: dict[str, Any] | None = None) -> None:
 
 
 def open_log(path: Path, filters: Any = None, mode: str | None = None,
-             kind: Kind | None = None) -> Any:
-    """A recorded log as a one-run world of ``kind`` (default: the planar log kind;
-    ``slam run --log FILE``), its work checked like a world's (raises the kind's
-    ``LogFormatError`` or a :class:`~worlds.schema.WorldError` naming the file)."""
-    world = (kind or log_kind()).open_log(Path(path), filters, mode)
+             kind: Kind | None = None, **options: Any) -> Any:
+    """A recorded log as a one-run world of ``kind`` (default: the log kind that reads
+    ``path``, :func:`log_kind`; ``slam run --log FILE``), its work checked like a world's
+    (raises the kind's ``LogFormatError`` or a :class:`~worlds.schema.WorldError` naming
+    the file); ``options`` go to the kind's reader (the IMU + GNSS log's holdout and
+    outages)."""
+    world = (kind or log_kind(path)).open_log(Path(path), filters, mode, **options)
     check_work(world)
     return world
 

@@ -53,7 +53,7 @@ def _put(table: dict[str, Any], dotted: str, value: Any) -> None:
     table[key] = value
 
 
-LOGS = ("recorded-log", "recorded-attitude")
+LOGS = ("recorded-log", "recorded-attitude", "ins-log")
 """The kinds that read a recorded log (one run each)."""
 
 
@@ -69,6 +69,12 @@ def _tiny(kind: str, tmp: Path) -> CampaignResult:
         path.write_text("\n".join(lines[:602]) + "\n", encoding="utf-8")
         return run_campaign(open_log(path, ["ekf", "srckf"], None, kind=get_kind(kind)),
                             workers=1)
+    if kind == "ins-log":  # a synthetic 90 s IMU + GNSS turn, every 5th fix held out
+        from slam.kinds.ins_log.synthetic import write_log
+        from slam.registry import open_log
+
+        return run_campaign(open_log(write_log(tmp), ["ekf", "srckf"], None,
+                                     kind=get_kind(kind), holdout=5), workers=1)
     if kind == log_kind().name:  # a recorded log is one run: a small synthetic log
         from slam.kinds.recorded.log import format_odometry_log
         from tests.slam.kinds.recorded.synthetic import synthetic_log

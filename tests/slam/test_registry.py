@@ -31,10 +31,12 @@ def test_the_built_in_kinds_are_registered() -> None:
         assert isinstance(kind, Kind) and kind.name == name and get_kind(name) is kind
     with pytest.raises(KeyError):
         get_kind("submarine")
-    # the log kinds (planar logs, the default; attitude logs) refuse world files
+    # the log kinds (planar logs, the default; attitude logs; IMU + GNSS logs, chosen by
+    # the path) refuse world files
     readers = [k for k in KINDS.values() if k.open_log is not None]
     assert readers[0] is log_kind() and log_kind().name == "recorded-log"
-    assert [k.name for k in readers] == ["recorded-log", "recorded-attitude"]
+    assert [k.name for k in readers] == ["recorded-log", "recorded-attitude", "ins-log"]
+    assert log_kind("a/b.csv") is log_kind("kitti") is not log_kind("victoria_park.txt")
     for reader in readers:
         with pytest.raises(WorldError, match="--log"):
             world_from_dict({"kind": reader.name}, name="x")

@@ -253,12 +253,15 @@ def read_attitude_log(path: str | os.PathLike) -> AttitudeRecord:
 
 
 def is_attitude_log(path: Path) -> bool:
-    """Whether ``path``'s first line is an EqFdata.csv-layout header (for ``--log``)."""
+    """Whether ``path``'s first line is an EqFdata.csv-layout header (for ``--log``): a
+    time column ``t`` and the gyro columns ``w_x``... (an IMU + GNSS CSV names its gyro
+    ``gx``...), so a file of that layout with a column missing still reaches this reader
+    and its error."""
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
             first = f.readline(4096)
     except (OSError, ValueError):
         return False
     cols = {c.strip() for c in first.removeprefix("\ufeff").split(",")}
-    return "t" in cols and "q_w" in cols and "w_x" in cols
+    return "t" in cols and "w_x" in cols and "gx" not in cols
 

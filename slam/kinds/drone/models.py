@@ -70,7 +70,9 @@ from typing import Self
 import numpy as np
 
 from estimators import Euclidean, Measurement, Noise, Product, Transition, Wrapped
-from estimators.linalg import Array, NotPositiveDefiniteError, chol, tria
+from estimators.linalg import Array
+from nav.ins import compose as _compose
+from nav.ins import psd_sqrt as psd_sqrt
 from nav.quaternion import qconj, qrotate, qto_dcm, skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import attitudes, dcm_unit, mechanise
@@ -126,17 +128,6 @@ class NavFrame:
     dt: float
     gravity: Array
     earth_rate: Array | None = None
-
-
-def psd_sqrt(C: Array) -> Array:
-    """A lower-triangular factor of a symmetric positive semi-definite matrix (a batch of
-    them: leading axes)."""
-    C = 0.5 * (C + np.swapaxes(C, -1, -2))
-    try:
-        return chol(C)
-    except NotPositiveDefiniteError:
-        w, U = np.linalg.eigh(C)
-        return tria(U * np.sqrt(np.clip(w, 0.0, None))[..., None, :])
 
 
 # --------------------------------------------------------------------------- prediction
@@ -198,23 +189,6 @@ def error_transition(x: Array, gyro: Array, accel: Array, nav: NavFrame, noise: 
     f = accel - x[..., BA][..., None, :]
     qs = attitudes(x[..., Q], w, nav.dt, nav.earth_rate)
     return error_transitions(dcm_unit(qs[..., :-1, :]), w, f, nav, noise)
-
-
-def _compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
-    """Compose per-sample ``(Φ_k, Q_k)`` (axis -3 is time) into the epoch's ``(Φ, Q)``:
-    pairwise, ``(Φ_b Φ_a, Φ_b Q_a Φ_bᵀ + Q_b)`` for ``a`` before ``b`` (log-depth)."""
-    while Phis.shape[-3] > 1:
-        n = Phis.shape[-3]
-        even = n - n % 2
-        Pa, Pb = Phis[..., 0:even:2, :, :], Phis[..., 1:even:2, :, :]
-        Qa, Qb = Qs[..., 0:even:2, :, :], Qs[..., 1:even:2, :, :]
-        P = Pb @ Pa
-        Qn = Pb @ Qa @ np.swapaxes(Pb, -1, -2) + Qb
-        if n % 2:
-            P = np.concatenate([P, Phis[..., -1:, :, :]], axis=-3)
-            Qn = np.concatenate([Qn, Qs[..., -1:, :, :]], axis=-3)
-        Phis, Qs = P, Qn
-    return Phis[..., 0, :, :], Qs[..., 0, :, :]
 
 
 def imu_transition(x_mean: Array, n_landmarks: int, gyro: Array, accel: Array, nav: NavFrame,

@@ -44,8 +44,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import Measurement, Noise, Transition, Wrapped
 from nav.euler import euler_zyx_to_q
+from nav.ins import psd_sqrt
 from nav.quaternion import qconj, qrotate
-from slam.kinds.drone.models import psd_sqrt
 
 Array = NDArray[np.float64]
 SPACE = Wrapped(6, (0, 2))

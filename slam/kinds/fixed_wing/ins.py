@@ -44,10 +44,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import Euclidean, Measurement, Noise, Product, Transition
+from nav.ins import compose as _compose
+from nav.ins import psd_sqrt
 from nav.quaternion import skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import attitudes, dcm_unit, mechanise
-from slam.kinds.drone.models import ImuNoise, psd_sqrt
+from slam.kinds.drone.models import ImuNoise
 
 Array = NDArray[np.float64]
 P, V, Q, EC, EM, NB = (slice(0, 3), slice(3, 6), slice(6, 10), slice(10, 13), slice(13, 16),
@@ -111,20 +113,6 @@ def error_matrices(C: Array, w: Array, f: Array, earth_rate: Array | None,
     F[..., 12 + idx, 12 + idx] = -1.0 / noise.gyro_time_s
     F[..., 15 + idx, 15 + idx] = -1.0 / noise.accel_time_s
     return F
-
-
-def _compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
-    """Epoch ``(Φ, Q)`` from per-sample pairs along axis 0: pairwise
-    ``(Φ_b Φ_a, Φ_b Q_a Φ_bᵀ + Q_b)``, ``a`` before ``b`` (log-depth)."""
-    while Phis.shape[0] > 1:
-        n = Phis.shape[0]
-        even = n - n % 2
-        Pa, Pb, Qa, Qb = Phis[0:even:2], Phis[1:even:2], Qs[0:even:2], Qs[1:even:2]
-        Pn, Qn = Pb @ Pa, Pb @ Qa @ np.swapaxes(Pb, -1, -2) + Qb
-        if n % 2:
-            Pn, Qn = np.concatenate([Pn, Phis[-1:]]), np.concatenate([Qn, Qs[-1:]])
-        Phis, Qs = Pn, Qn
-    return Phis[0], Qs[0]
 
 
 def _block(n: int, most: int | None = None) -> int:
