@@ -22,10 +22,23 @@ a velocity ``V(e)`` and an IMU bias ``B(e)`` (``imuBias.ConstantBias``, GTSAM's 
   measured direction's ``basis()`` (the factor's error is
   ``measured.localCoordinates(predicted)`` to first order).
 
-Solving: the epochs are fed to iSAM2 in batches of ``ISAM_BATCH`` (each new state
-predicted from the previous one by the preintegrated measurement, starting from iSAM2's
-current estimate at each batch; each new landmark initialised by inverting its first
-observation), then a batch Levenberg-Marquardt polish.
+Solving (:func:`solve_graph`): the epochs are fed to iSAM2 (each new state predicted from
+the previous one by the preintegrated measurement, starting from iSAM2's current estimate
+at each update; each new landmark initialised by inverting its first observation), then
+a batch Levenberg-Marquardt polish.  Two schedules and two preintegration bias points:
+
+- ``schedule="epochs"``: ``ISAM_BATCH`` epochs per update (iSAM2's estimate along the
+  way is the online one); ``"chunks"``: ``CHUNK`` epochs per update, iSAM2 only a cheap
+  initialisation of the final solve (fewer, larger updates: a landmark seen again
+  re-factors most of the Bayes tree at every update);
+- ``bias_point="estimate"``: each interval preintegrated about iSAM2's bias estimate at
+  the start of its update, so the graph, and its optimum, depend on the schedule (a
+  change of ``ISAM_BATCH`` moves the optimum's errors by ~1e-5 relative: the first-order
+  bias correction of the preintegrated measurements is not exact); ``"prior"``: every
+  interval preintegrated once, about the prior bias, so the graph is the log's alone
+  and every schedule reaches the same optimum (the correction's error is second order
+  in the bias change over an epoch, :math:`(\delta b_g\,\Delta t)^2 \sim 10^{-9}`).
+
 iSAM2 factorises by QR: with Cholesky it declares the graph indeterminate within the
 first landmark sightings (information spans ~1e14 from the bias random walk to the
 landmarks), which QR solves without complaint.
@@ -58,6 +71,14 @@ RELIN_THRESHOLD = 0.1
 #: Epochs handed to iSAM2 per update (1 s at 5 Hz); within a batch each new state is
 #: predicted from the previous one by the preintegrated measurements.
 ISAM_BATCH = 5
+#: Epochs handed to iSAM2 per update on the ``"chunks"`` schedule (10 s at 5 Hz): there
+#: iSAM2 only initialises the final Levenberg-Marquardt solve.
+CHUNK = 50
+#: Schedules and preintegration bias points of :func:`solve_graph`, and the defaults.
+SCHEDULES = ("epochs", "chunks")
+BIAS_POINTS = ("estimate", "prior")
+SCHEDULE = "epochs"
+BIAS_POINT = "estimate"
 
 
 def _rot(q: Array) -> gtsam.Rot3:
@@ -136,27 +157,47 @@ def _landmark_factors(log: DroneLog, e: int, sl: slice, pose_e, obs_cov: Array, 
             new_v.insert(L(j), pose_e.transformFrom(r * u))
 
 
-def _build_and_solve(log: DroneLog, imu_noise_scale: float, sensor_noise_scale: float
-                     ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
-    """The factor graph fed epoch by epoch to iSAM2 (in batches of ``ISAM_BATCH``), each
-    new state initialised by preintegration from the current estimate; then an LM polish."""
-    params = preintegration_params(log, imu_noise_scale)
-    obs_cov = log.obs_cov * sensor_noise_scale
-    graph, vals = _prior_factors(log)
-    pose_prev, vel_prev, bias_prev = vals.atPose3(X(0)), vals.atVector(V(0)), _bias(log.x0)
+def _preintegrate(log: DroneLog, params, bias: gtsam.imuBias.ConstantBias, e: int):
+    """The IMU samples of the interval ``(e - 1, e]`` preintegrated about ``bias``."""
+    k0, k1 = int(log.steps[e - 1]), int(log.steps[e])
+    pim = gtsam.PreintegratedCombinedMeasurements(params, bias)
+    for acc, gyr in zip(log.accel[k0:k1], log.gyro[k0:k1]):
+        pim.integrateMeasurement(acc, gyr, log.nav.dt)
+    return pim
+
+
+def _prior_preintegrations(log: DroneLog, params) -> list:
+    """Every interval preintegrated once about the prior bias (the log's ``x0``): element
+    ``e - 1`` is the interval ``(e - 1, e]``."""
+    b0 = _bias(log.x0)
+    return [_preintegrate(log, params, b0, e) for e in range(1, log.n_epochs)]
+
+
+def _isam(graph: gtsam.NonlinearFactorGraph, vals: gtsam.Values) -> gtsam.ISAM2:
     isam_params = gtsam.ISAM2Params()
     isam_params.setFactorization("QR")  # Cholesky reports this graph indeterminate
     isam_params.setRelinearizeThreshold(RELIN_THRESHOLD)
     isam_params.relinearizeSkip = RELIN_SKIP
     isam = gtsam.ISAM2(isam_params)
     isam.update(graph, vals)
+    return isam
+
+
+def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | None
+                ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
+    """The factor graph fed to iSAM2 ``feed`` epochs per update, each new state predicted
+    by preintegration from iSAM2's estimate at the start of its update.  ``pims``: the
+    intervals preintegrated beforehand (:func:`_prior_preintegrations`); None: each
+    interval preintegrated about iSAM2's bias estimate at the start of its update (the
+    graph then depends on ``feed``).  Returns the graph, iSAM2's final estimate and the
+    landmarks seen."""
+    graph, vals = _prior_factors(log)
+    pose_prev, vel_prev, bias_prev = vals.atPose3(X(0)), vals.atVector(V(0)), _bias(log.x0)
+    isam = _isam(graph, vals)
     obs_at, seen, E = log.observations_at(), set(), log.n_epochs
     new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
     for e in range(1, E):
-        k0, k1 = int(log.steps[e - 1]), int(log.steps[e])
-        pim = gtsam.PreintegratedCombinedMeasurements(params, bias_prev)
-        for acc, gyr in zip(log.accel[k0:k1], log.gyro[k0:k1]):
-            pim.integrateMeasurement(acc, gyr, log.nav.dt)
+        pim = _preintegrate(log, params, bias_prev, e) if pims is None else pims[e - 1]
         new_f.add(gtsam.CombinedImuFactor(X(e - 1), V(e - 1), X(e), V(e), B(e - 1), B(e), pim))
         pred = pim.predict(gtsam.NavState(pose_prev, vel_prev), bias_prev)
         pose_prev, vel_prev = pred.pose(), pred.velocity()
@@ -166,7 +207,7 @@ def _build_and_solve(log: DroneLog, imu_noise_scale: float, sensor_noise_scale: 
         sl = obs_at.get(e)
         if sl is not None:
             _landmark_factors(log, e, sl, pose_prev, obs_cov, seen, new_f, new_v)
-        if e % ISAM_BATCH and e < E - 1:
+        if e % feed and e < E - 1:
             continue
         graph.push_back(new_f)
         isam.update(new_f, new_v)
@@ -174,13 +215,36 @@ def _build_and_solve(log: DroneLog, imu_noise_scale: float, sensor_noise_scale: 
         pose_prev = isam.calculateEstimatePose3(X(e))
         vel_prev = isam.calculateEstimateVector(V(e))
         bias_prev = isam.calculateEstimateConstantBias(B(e))
+    return graph, isam.calculateEstimate(), seen
+
+
+def _polish(graph: gtsam.NonlinearFactorGraph, init: gtsam.Values) -> gtsam.Values:
+    """Batch Levenberg-Marquardt from ``init`` to the optimum of ``graph``."""
     lm_params = gtsam.LevenbergMarquardtParams()
     lm_params.setRelativeErrorTol(1e-10)
     lm_params.setAbsoluteErrorTol(1e-12)
     lm_params.setMaxIterations(50)
-    values = gtsam.LevenbergMarquardtOptimizer(graph, isam.calculateEstimate(),
-                                               lm_params).optimize()
-    return graph, values, seen
+    return gtsam.LevenbergMarquardtOptimizer(graph, init, lm_params).optimize()
+
+
+def solve_graph(log: DroneLog, *, imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
+                schedule: str = SCHEDULE, bias_point: str = BIAS_POINT
+                ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
+    """The smoother's graph and its optimum (module docstring, "Solving"): ``schedule``
+    ``"epochs"`` feeds iSAM2 ``ISAM_BATCH`` epochs per update, ``"chunks"`` ``CHUNK``;
+    ``bias_point`` ``"estimate"`` preintegrates each interval about iSAM2's current bias
+    estimate (``"epochs"`` only), ``"prior"`` once about the prior bias."""
+    if schedule not in SCHEDULES:
+        raise ValueError(f"schedule {schedule!r}: one of {', '.join(SCHEDULES)}")
+    if bias_point not in BIAS_POINTS or (bias_point, schedule) == ("estimate", "chunks"):
+        raise ValueError(f"bias_point {bias_point!r} with schedule {schedule!r}: 'prior', "
+                         "or 'estimate' with schedule 'epochs'")
+    params = preintegration_params(log, imu_noise_scale)
+    obs_cov = log.obs_cov * sensor_noise_scale
+    pims = _prior_preintegrations(log, params) if bias_point == "prior" else None
+    feed = ISAM_BATCH if schedule == "epochs" else CHUNK
+    graph, init, seen = _solve_isam(log, params, obs_cov, feed, pims)
+    return graph, _polish(graph, init), seen
 
 
 def _marginals(graph, values, Rs: Array, ids: Array) -> tuple[Array, Array]:
@@ -202,24 +266,28 @@ def _marginals(graph, values, Rs: Array, ids: Array) -> tuple[Array, Array]:
 
 
 def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
-                 sensor_noise_scale: float = 1.0, marginals: bool = True) -> DroneEstimate:
-    """Smooth a drone log with GTSAM (iSAM2 over the epochs, then an LM polish).
+                 sensor_noise_scale: float = 1.0, marginals: bool = True,
+                 schedule: str = SCHEDULE, bias_point: str = BIAS_POINT) -> DroneEstimate:
+    """Smooth a drone log with GTSAM (iSAM2 over the epochs, then an LM polish;
+    ``schedule`` and ``bias_point`` as :func:`solve_graph`).
 
     ``time_s`` covers the graph, iSAM2 and LM; ``extra_time_s`` the marginals.
     """
     t_start = time.perf_counter()
     E = log.n_epochs
-    graph, values, seen = _build_and_solve(log, imu_noise_scale, sensor_noise_scale)
-    p, v, q = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 4))
-    bias, Rs = np.empty((E, 6)), np.empty((E, 3, 3))
+    graph, values, seen = solve_graph(log, imu_noise_scale=imu_noise_scale,
+                                      sensor_noise_scale=sensor_noise_scale,
+                                      schedule=schedule, bias_point=bias_point)
+    p, v, bias = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 6))
+    Rs = np.empty((E, 3, 3))
     for e in range(E):
         pose = values.atPose3(X(e))
         Rs[e] = pose.rotation().matrix()
         p[e] = pose.translation()
-        q[e] = dcm_to_q(Rs[e])
         v[e] = values.atVector(V(e))
         bv = values.atConstantBias(B(e)).vector()
-        bias[e] = np.concatenate([bv[3:], bv[:3]])
+        bias[e, :3], bias[e, 3:] = bv[3:], bv[:3]
+    q = dcm_to_q(Rs)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
     t_solved = time.perf_counter()
