@@ -28,9 +28,12 @@ at each update; each new landmark initialised by inverting its first observation
 a batch Levenberg-Marquardt polish.  Two schedules and two preintegration bias points:
 
 - ``schedule="epochs"``: ``ISAM_BATCH`` epochs per update (iSAM2's estimate along the
-  way is the online one); ``"chunks"``: ``CHUNK`` epochs per update, iSAM2 only a cheap
-  initialisation of the final solve (fewer, larger updates: a landmark seen again
-  re-factors most of the Bayes tree at every update);
+  way is the online one); ``"keyframes"``: iSAM2 only initialises the final solve, on
+  every ``KEYFRAME``-th epoch (one IMU factor per keyframe interval, the keyframes'
+  sightings; ``KEYFRAME_FEED`` keyframes per update), the epochs between predicted from
+  the keyframe before them.  A landmark seen again re-factors most of the Bayes tree at
+  every update, so the keyframes' five times smaller tree is what makes it cheap; the
+  final solve is the same graph, so it reaches the same optimum;
 - ``bias_point="estimate"``: each interval preintegrated about iSAM2's bias estimate at
   the start of its update, so the graph, and its optimum, depend on the schedule (a
   change of ``ISAM_BATCH`` moves the optimum's errors by ~1e-5 relative: the first-order
@@ -71,11 +74,12 @@ RELIN_THRESHOLD = 0.1
 #: Epochs handed to iSAM2 per update (1 s at 5 Hz); within a batch each new state is
 #: predicted from the previous one by the preintegrated measurements.
 ISAM_BATCH = 5
-#: Epochs handed to iSAM2 per update on the ``"chunks"`` schedule (10 s at 5 Hz): there
-#: iSAM2 only initialises the final Levenberg-Marquardt solve.
-CHUNK = 50
+#: The ``"keyframes"`` schedule: every KEYFRAME-th epoch is a keyframe (1 s at 5 Hz);
+#: iSAM2 gets KEYFRAME_FEED keyframes per update.
+KEYFRAME = 5
+KEYFRAME_FEED = 10
 #: Schedules and preintegration bias points of :func:`solve_graph`, and the defaults.
-SCHEDULES = ("epochs", "chunks")
+SCHEDULES = ("epochs", "keyframes")
 BIAS_POINTS = ("estimate", "prior")
 SCHEDULE = "epochs"
 BIAS_POINT = "estimate"
@@ -157,9 +161,11 @@ def _landmark_factors(log: DroneLog, e: int, sl: slice, pose_e, obs_cov: Array, 
             new_v.insert(L(j), pose_e.transformFrom(r * u))
 
 
-def _preintegrate(log: DroneLog, params, bias: gtsam.imuBias.ConstantBias, e: int):
-    """The IMU samples of the interval ``(e - 1, e]`` preintegrated about ``bias``."""
-    k0, k1 = int(log.steps[e - 1]), int(log.steps[e])
+def _preintegrate(log: DroneLog, params, bias: gtsam.imuBias.ConstantBias, e: int,
+                  start: int | None = None):
+    """The IMU samples from epoch ``start`` (default ``e - 1``) to ``e`` preintegrated
+    about ``bias``."""
+    k0, k1 = int(log.steps[e - 1 if start is None else start]), int(log.steps[e])
     pim = gtsam.PreintegratedCombinedMeasurements(params, bias)
     for acc, gyr in zip(log.accel[k0:k1], log.gyro[k0:k1]):
         pim.integrateMeasurement(acc, gyr, log.nav.dt)
@@ -218,6 +224,71 @@ def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | N
     return graph, isam.calculateEstimate(), seen
 
 
+def _keyframe_estimate(log: DroneLog, params, obs_cov: Array) -> tuple[gtsam.Values, list[int]]:
+    """iSAM2's estimate on the keyframes: every ``KEYFRAME``-th epoch (and the last), one
+    ``CombinedImuFactor`` per keyframe interval (preintegrated about the prior bias) and
+    the keyframes' sightings, fed ``KEYFRAME_FEED`` keyframes per update."""
+    E, b0 = log.n_epochs, _bias(log.x0)
+    keys = list(range(0, E, KEYFRAME))
+    if keys[-1] != E - 1:
+        keys.append(E - 1)
+    graph, vals = _prior_factors(log)
+    isam = _isam(graph, vals)
+    pose, vel, bias = vals.atPose3(X(0)), vals.atVector(V(0)), b0
+    obs_at, seen = log.observations_at(), set()
+    new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    for i in range(1, len(keys)):
+        e0, e1 = keys[i - 1], keys[i]
+        pim = _preintegrate(log, params, b0, e1, e0)
+        new_f.add(gtsam.CombinedImuFactor(X(e0), V(e0), X(e1), V(e1), B(e0), B(e1), pim))
+        pred = pim.predict(gtsam.NavState(pose, vel), bias)
+        pose, vel = pred.pose(), pred.velocity()
+        new_v.insert(X(e1), pose)
+        new_v.insert(V(e1), vel)
+        new_v.insert(B(e1), bias)
+        sl = obs_at.get(e1)
+        if sl is not None:
+            _landmark_factors(log, e1, sl, pose, obs_cov, seen, new_f, new_v)
+        if i % KEYFRAME_FEED and i < len(keys) - 1:
+            continue
+        isam.update(new_f, new_v)
+        new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        pose = isam.calculateEstimatePose3(X(e1))
+        vel = isam.calculateEstimateVector(V(e1))
+        bias = isam.calculateEstimateConstantBias(B(e1))
+    return isam.calculateEstimate(), keys
+
+
+def _solve_keyframes(log: DroneLog, params, obs_cov: Array, pims: list
+                     ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
+    """The whole graph (``pims`` about the prior bias) with its initial values: the
+    keyframes' estimate (:func:`_keyframe_estimate`), the epochs between predicted from
+    the keyframe before them, a landmark no keyframe saw from its first sighting."""
+    est, keys = _keyframe_estimate(log, params, obs_cov)
+    is_key = set(keys)
+    graph, _ = _prior_factors(log)
+    init, obs_at, seen = gtsam.Values(), log.observations_at(), set()
+    for e in range(log.n_epochs):
+        if e in is_key:
+            pose, vel, bias = est.atPose3(X(e)), est.atVector(V(e)), est.atConstantBias(B(e))
+        else:
+            pred = pims[e - 1].predict(gtsam.NavState(pose, vel), bias)
+            pose, vel = pred.pose(), pred.velocity()
+        init.insert(X(e), pose)
+        init.insert(V(e), vel)
+        init.insert(B(e), bias)
+        if e:
+            graph.add(gtsam.CombinedImuFactor(X(e - 1), V(e - 1), X(e), V(e), B(e - 1), B(e),
+                                              pims[e - 1]))
+        sl = obs_at.get(e)
+        if sl is not None:
+            _landmark_factors(log, e, sl, pose, obs_cov, seen, graph, init)
+    for j in seen:
+        if est.exists(L(j)):
+            init.update(L(j), est.atPoint3(L(j)))
+    return graph, init, seen
+
+
 def _polish(graph: gtsam.NonlinearFactorGraph, init: gtsam.Values) -> gtsam.Values:
     """Batch Levenberg-Marquardt from ``init`` to the optimum of ``graph``."""
     lm_params = gtsam.LevenbergMarquardtParams()
@@ -230,20 +301,21 @@ def _polish(graph: gtsam.NonlinearFactorGraph, init: gtsam.Values) -> gtsam.Valu
 def solve_graph(log: DroneLog, *, imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
                 schedule: str = SCHEDULE, bias_point: str = BIAS_POINT
                 ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
-    """The smoother's graph and its optimum (module docstring, "Solving"): ``schedule``
-    ``"epochs"`` feeds iSAM2 ``ISAM_BATCH`` epochs per update, ``"chunks"`` ``CHUNK``;
-    ``bias_point`` ``"estimate"`` preintegrates each interval about iSAM2's current bias
-    estimate (``"epochs"`` only), ``"prior"`` once about the prior bias."""
+    """The smoother's graph, its optimum and the landmarks seen (module docstring,
+    "Solving"): ``schedule`` ``"epochs"`` or ``"keyframes"``, ``bias_point``
+    ``"estimate"`` (``"epochs"`` only) or ``"prior"``."""
     if schedule not in SCHEDULES:
         raise ValueError(f"schedule {schedule!r}: one of {', '.join(SCHEDULES)}")
-    if bias_point not in BIAS_POINTS or (bias_point, schedule) == ("estimate", "chunks"):
+    if bias_point not in BIAS_POINTS or (bias_point, schedule) == ("estimate", "keyframes"):
         raise ValueError(f"bias_point {bias_point!r} with schedule {schedule!r}: 'prior', "
                          "or 'estimate' with schedule 'epochs'")
     params = preintegration_params(log, imu_noise_scale)
     obs_cov = log.obs_cov * sensor_noise_scale
     pims = _prior_preintegrations(log, params) if bias_point == "prior" else None
-    feed = ISAM_BATCH if schedule == "epochs" else CHUNK
-    graph, init, seen = _solve_isam(log, params, obs_cov, feed, pims)
+    if schedule == "epochs":
+        graph, init, seen = _solve_isam(log, params, obs_cov, ISAM_BATCH, pims)
+    else:
+        graph, init, seen = _solve_keyframes(log, params, obs_cov, pims or [])
     return graph, _polish(graph, init), seen
 
 
