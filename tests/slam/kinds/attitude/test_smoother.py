@@ -39,18 +39,44 @@ def _scaled(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b) / (d[..., :, None] * d[..., None, :])))
 
 
-@pytest.mark.parametrize("mode", ["quaternion", "vectors"])
-def test_chain_marginals_equal_gtsams_joint_marginals(mode):
+def _world_and_args(mode: str):
     w = short_star_sensor_world(60.0, **{"star_sensor.mode": mode})
     log = simulate_attitude(att.sim_config(w), np.random.default_rng(3))
     x0, P0 = att.initial_belief(w, log)
     fs = w.filters
-    args = (log, x0, P0, fs.arw_rad_sqrt_s, fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
+    return log, (log, x0, P0, fs.arw_rad_sqrt_s, fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
+
+
+@pytest.mark.parametrize("mode", ["quaternion", "vectors"])
+def test_chain_marginals_equal_the_dense_square_root_inverse(mode):
+    """The chain recursion against R^-1 R^-T of one dense QR of the whole Jacobian."""
+    import gtsam
+
+    from slam.kinds.attitude import smoother as sm
+
+    log, args = _world_and_args(mode)
+    graph, values, X, B = sm.attitude_graph(*args)
+    result = gtsam.LevenbergMarquardtOptimizer(graph, values).optimize()
+    rows, base = sm.chain_jacobian(graph, result, X, B)
+    M = log.n_star
+    J = np.zeros((len(rows), 6 * M + 6))
+    for i, (row, b) in enumerate(zip(rows, base)):
+        J[i, 6 * b:6 * b + 12] = row
+    R_inv = np.linalg.inv(np.linalg.qr(J[:, :6 * M], mode="r"))
+    dense = np.stack([(R_inv[6 * j:6 * j + 6] @ R_inv[6 * j:6 * j + 6].T)
+                      for j in range(M)])
+    chain = sm.chain_marginals(rows, base, M)
+    assert _scaled(dense, chain) < 1e-10  # measured: 8.6e-12 (quaternions), 9.2e-12
+
+
+@pytest.mark.parametrize("mode", ["quaternion", "vectors"])
+def test_chain_marginals_equal_gtsams_joint_marginals(mode):
+    _, args = _world_and_args(mode)
     joint = att.smooth_attitude(*args, marginal_method="joint")
     chain = att.smooth_attitude(*args, marginal_method="chain")
     np.testing.assert_array_equal(chain.means, joint.means)
-    # Measured 5.9e-8 in both modes: the chain's J^T J squares the condition number
-    # (slam.kinds.attitude.smoother's docstring), so equal only to ~1e-7 of the std's.
-    assert _scaled(joint.covs, chain.covs) < 2e-7
+    # Measured 8.8e-9 (quaternions), 1.0e-8 (vectors): GTSAM's own error (its Bayes tree's
+    # Cholesky; 7e-9 against a longdouble inverse on the 120 s world, the chain 6e-12).
+    assert _scaled(joint.covs, chain.covs) < 5e-8
     with pytest.raises(ValueError, match="marginal_method"):
         att.smooth_attitude(*args, marginal_method="dense")
