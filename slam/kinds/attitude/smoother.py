@@ -14,19 +14,11 @@ Marginals, two ways (``marginal_method``):
 
 - ``"joint"``: GTSAM's ``Marginals`` and one ``jointMarginalCovariance([R_j, B_j])`` per
   epoch (each a walk of the Bayes tree);
-- ``"chain"`` (default): once, from the whitened Jacobian :math:`J` of the graph
-  linearised at the optimum (``sparseJacobian_``).  Every factor touches one epoch or two
-  consecutive ones, so in the order ``[δθ_0, δb_0, δθ_1, δb_1, ...]`` a forward QR sweep
-  gives the square-root information factor as a block-bidiagonal chain: QR of the rows on
-  epoch ``j`` (and ``j + 1``) under the factor carried from ``j - 1`` gives
-  :math:`R_{jj}`, :math:`R_{j,j+1}` (the conditional of epoch ``j`` given ``j + 1``) and
-  the factor carried to ``j + 1``.  Back-substituting,
-  :math:`\Sigma_{M-1} = R^{-1}R^{-\top}`,
-  :math:`\Sigma_j = R_{jj}^{-1}R_{jj}^{-\top} + K_j \Sigma_{j+1} K_j^\top` with
-  :math:`K_j = R_{jj}^{-1}R_{j,j+1}` (the Rauch-Tung-Striebel form) gives every epoch's
-  6 × 6 joint marginal in :math:`O(M)` small products.  On the 120 s star-sensor world it
-  agrees with an extended-precision (``longdouble``) inverse of :math:`J^\top J` to 6e-12
-  of :math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, where ``"joint"`` is off by 7e-9 (the Bayes
+- ``"chain"`` (default): once, by the square-root sweep of :mod:`slam.chain_marginals`
+  over the whitened Jacobian (every factor touches one epoch or two consecutive ones; the
+  epoch's columns ``[δθ_j, δb_j]``).  On the 120 s star-sensor world it agrees with an
+  extended-precision (``longdouble``) inverse of :math:`J^\top J` to 6e-12 of
+  :math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, where ``"joint"`` is off by 7e-9 (the Bayes
   tree's Cholesky at an information span of ~1e17).
 """
 
@@ -41,6 +33,7 @@ from numpy.typing import NDArray
 
 from nav.gyro import dead_reckoning
 from nav.quaternion import dcm_to_q
+from slam.chain_marginals import chain_marginals, jacobian_rows
 from slam.kinds.attitude.simulate import AttitudeLog
 from slam.results import REFERENCE, EstimateSeries
 
@@ -113,56 +106,12 @@ def joint_marginals(graph: Any, result: Any, X: list[int], B: list[int]) -> Arra
     return covs
 
 
-def chain_jacobian(graph: Any, result: Any, X: list[int], B: list[int]
-                   ) -> tuple[Array, Array]:
-    """The whitened Jacobian at ``result`` as row windows: ``rows`` (R, 12), each row's
-    entries on epochs ``base`` and ``base + 1`` in the order ``[δθ, δb]`` (zero past the
-    last epoch), and ``base`` (R,); ValueError if a row spans epochs further apart."""
-    S = graph.linearize(result).sparseJacobian_()
-    r, c, v = S[0].astype(np.int64) - 1, S[1].astype(np.int64) - 1, S[2]
-    keys = sorted(result.keys())  # sparseJacobian_'s column order: sorted keys, 3 each
-    where = {k: 3 * i for i, k in enumerate(keys)}
-    slot = np.empty(3 * len(keys), np.int64)
-    for j, (x, b) in enumerate(zip(X, B)):
-        slot[where[x]:where[x] + 3] = np.arange(6 * j, 6 * j + 3)
-        slot[where[b]:where[b] + 3] = np.arange(6 * j + 3, 6 * j + 6)
-    keep = c < len(slot)  # the last column is the right-hand side
-    r, col, v = r[keep], slot[c[keep]], v[keep]
-    n_rows = int(r.max()) + 1 if len(r) else 0
-    base = np.full(n_rows, np.iinfo(np.int64).max)
-    np.minimum.at(base, r, col // 6)
-    offset = col - 6 * base[r]
-    if np.any(offset >= 12):
-        raise ValueError("the graph is not a chain of consecutive epochs")
-    rows = np.zeros((n_rows, 12))
-    rows[r, offset] = v
-    return rows, base
-
-
-def chain_marginals(rows: Array, base: Array, M: int) -> Array:
-    """Every epoch's (6, 6) marginal from the Jacobian's row windows (module docstring):
-    a forward QR sweep, then the backward recursion."""
-    order = np.argsort(base, kind="stable")
-    groups = np.split(rows[order], np.searchsorted(base[order], np.arange(1, M)))
-    R_jj, R_jn = np.empty((M, 6, 6)), np.empty((M, 6, 6))
-    carried = np.zeros((0, 12))
-    for j in range(M):
-        stacked = np.vstack([carried, groups[j]])
-        R = np.linalg.qr(stacked if j < M - 1 else stacked[:, :6], mode="r")
-        if R.shape[0] < 6:
-            raise np.linalg.LinAlgError(f"epoch {j}: the marginal is indeterminate")
-        R_jj[j] = R[:6, :6]
-        if j < M - 1:
-            R_jn[j] = R[:6, 6:]
-            carried = np.zeros((R.shape[0] - 6, 12))
-            carried[:, :6] = R[6:, 6:]
-    R_inv = np.linalg.inv(R_jj)
-    covs = np.empty((M, 6, 6))
-    covs[-1] = R_inv[-1] @ R_inv[-1].T
-    for j in range(M - 2, -1, -1):
-        K = R_inv[j] @ R_jn[j]
-        covs[j] = R_inv[j] @ R_inv[j].T + K @ covs[j + 1] @ K.T
-    return 0.5 * (covs + np.swapaxes(covs, -1, -2))
+def chain_covariances(graph: Any, result: Any, X: list[int], B: list[int]) -> Array:
+    """(M, 6, 6) ``[δθ_j, δb_j]`` marginals by the square-root chain
+    (:mod:`slam.chain_marginals`; no global variables)."""
+    slots = {**{x: (j, 0) for j, x in enumerate(X)}, **{b: (j, 3) for j, b in enumerate(B)}}
+    local, glob, base = jacobian_rows(graph, result, slots, 6, 0)
+    return chain_marginals(local, glob, base, len(X))[0]
 
 
 def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
@@ -198,6 +147,6 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
     if marginals and marginal_method == "joint":
         covs = joint_marginals(graph, result, X, B)
     elif marginals:
-        covs = chain_marginals(*chain_jacobian(graph, result, X, B), M)
+        covs = chain_covariances(graph, result, X, B)
     return EstimateSeries(REFERENCE, means, covs, M - 1, nis=np.full(M, np.nan), nis_dof=0,
                           time_s=solve_s, extra_time_s=time.perf_counter() - t1)
