@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import lapack
 
 Array = NDArray[np.float64]
 
@@ -49,12 +50,11 @@ def jacobian_rows(graph: Any, values: Any, slots: Mapping[int, tuple[int, int]],
     S = graph.linearize(values).sparseJacobian_()
     r, c, v = S[0].astype(np.int64) - 1, S[1].astype(np.int64) - 1, S[2]
     dims = values.dims()
-    epoch, col = [], []
-    for key in sorted(dims):  # sparseJacobian_'s column order: sorted keys
-        e, off = slots[key]
-        epoch.append(np.full(dims[key], e))
-        col.append(np.arange(off, off + dims[key]))
-    ep, cl = np.concatenate(epoch), np.concatenate(col)
+    keys = sorted(dims)  # sparseJacobian_'s column order: sorted keys
+    d = np.array([dims[k] for k in keys], dtype=np.int64)
+    e_key, off_key = np.array([slots[k] for k in keys], dtype=np.int64).reshape(-1, 2).T
+    within = np.arange(int(d.sum())) - np.repeat(np.cumsum(d) - d, d)
+    ep, cl = np.repeat(e_key, d), np.repeat(off_key, d) + within
     keep = c < len(ep)  # the last column is the right-hand side
     r, c, v = r[keep], c[keep], v[keep]
     n_rows = int(r.max()) + 1 if len(r) else 0
@@ -74,36 +74,58 @@ def jacobian_rows(graph: Any, values: Any, slots: Mapping[int, tuple[int, int]],
     return local, glob, base
 
 
+def _triangularise(A: Array, k: int) -> tuple[Array, Array]:
+    """QR of the first ``k`` columns of ``A`` (m, k + w): ``(R, QᵀA[:, k:])`` with ``R``
+    (min(m, k), k) upper triangular (LAPACK ``geqrf`` and ``ormqr``)."""
+    qr, tau, _, info = lapack.dgeqrf(A[:, :k])
+    if info:
+        raise np.linalg.LinAlgError(f"geqrf: info {info}")
+    rest = A[:, k:]
+    if rest.shape[1]:
+        rest, _, info = lapack.dormqr("L", "T", qr, tau, np.asfortranarray(rest),
+                                      lwork=max(1, 64 * rest.shape[1]))
+        if info:
+            raise np.linalg.LinAlgError(f"ormqr: info {info}")
+    return np.triu(qr[:k]), rest
+
+
 def chain_marginals(local: Array, glob: Array, base: Array, M: int
                     ) -> tuple[Array, Array, Array]:
     """``(Sigma, Cov_xL, Sigma_LL)``: every epoch's marginal (M, n, n), its covariance with
     the globals (M, n, g) and the globals' (g, g), by the sweep of the module docstring.
-    Raises ``numpy.linalg.LinAlgError`` if an epoch or the globals are indeterminate."""
+
+    Each step triangularises only the epoch columns ``[x_j, x_{j+1}]`` and applies the
+    rotation to the global columns: the rows left with global entries only are a factor
+    on the globals alone, set aside and triangularised once at the end.  Raises
+    ``numpy.linalg.LinAlgError`` if an epoch or the globals are indeterminate.
+    """
     n, g = local.shape[1] // 2, glob.shape[1]
     order = np.argsort(base, kind="stable")
     rows = np.hstack([local, glob])[order]
     groups = np.split(rows, np.searchsorted(base[order], np.arange(1, M)))
-    R_jj, R_jy = np.empty((M, n, n)), np.empty((M, n, n + g))
+    R_jj, R_jy = np.empty((M, n, n)), np.zeros((M, n, n + g))
     carried = np.zeros((0, n + g))  # columns [x_j, L]
+    global_rows = []
     for j in range(M):
-        top = np.hstack([carried[:, :n], np.zeros((len(carried), n)), carried[:, n:]])
-        stacked = np.vstack([top, groups[j]])
-        if j == M - 1:
-            stacked = np.delete(stacked, np.s_[n:2 * n], axis=1)
-        R = np.linalg.qr(stacked, mode="r")
-        if R.shape[0] < n or np.any(np.abs(np.diagonal(R)[:n]) == 0.0):
+        last = j == M - 1
+        group = np.delete(groups[j], np.s_[n:2 * n], axis=1) if last else groups[j]
+        top = carried if last else np.hstack(
+            [carried[:, :n], np.zeros((len(carried), n)), carried[:, n:]])
+        k = n if last else 2 * n
+        R, rest = _triangularise(np.vstack([top, group]), k)
+        if R.shape[0] < n or np.any(np.diagonal(R[:n, :n]) == 0.0):
             raise np.linalg.LinAlgError(f"epoch {j}: the marginal is indeterminate")
         R_jj[j] = R[:n, :n]
-        if j < M - 1:
-            R_jy[j] = R[:n, n:]
-            carried = R[n:, n:]
-        else:
-            R_jy[j, :, :n], R_jy[j, :, n:] = 0.0, R[:n, n:]
-            carried = R[n:, n:]
+        R_jy[j, :, n:] = rest[:n]
+        if not last:
+            R_jy[j, :, :n] = R[:n, n:]
+            carried = np.hstack([R[n:, n:], rest[n:len(R)]])
+        global_rows.append(rest[len(R):])
     if g:
-        if carried.shape[0] < g:
+        R_LL = np.linalg.qr(np.vstack(global_rows), mode="r")
+        if R_LL.shape[0] < g or np.any(np.diagonal(R_LL) == 0.0):
             raise np.linalg.LinAlgError("the global variables are indeterminate")
-        R_LL_inv = np.linalg.inv(carried[:g])
+        R_LL_inv = np.linalg.inv(R_LL[:g])
         S_LL = R_LL_inv @ R_LL_inv.T
     else:
         S_LL = np.zeros((0, 0))
