@@ -8,7 +8,8 @@ printed as one JSON object, with the objective (½χ² of the final graph) of ea
   (iSAM2 fed ``ISAM_BATCH`` epochs per update, each interval preintegrated about iSAM2's
   current bias; LM; marginals); ``epochs_prior`` = the same schedule on the graph
   preintegrated once about the prior bias; ``keyframes`` = that graph solved by one LM
-  from iSAM2's keyframe estimate.  ``keyframes`` and ``epochs_prior`` share one graph and
+  from iSAM2's keyframe estimate; ``keyframes_chain`` = that with the marginals by the
+  square-root chain instead of GTSAM's ``Marginals``.  The last three share one graph and
   so one optimum; ``today``'s graph is another (the bias points differ).
 - star-sensor (:func:`attitude_paths`): ``today`` = ``smooth_attitude`` with GTSAM's joint
   marginals per epoch (the path before the chain marginals); ``chain`` = the same solve,
@@ -65,14 +66,16 @@ def drone_paths(world_name: str, repeats: int) -> dict[str, Any]:
     log = simulate_drone(w, np.random.default_rng(run_seeds(w.seed, 1)[0]))
     fs = w.filters
     kw = {"imu_noise_scale": fs.imu_noise_scale, "sensor_noise_scale": fs.sensor_noise_scale}
-    variants = {"today": {}, "epochs_prior": {"bias_point": "prior"},
-                "keyframes": {"schedule": "keyframes", "bias_point": "prior"}}
+    fast = {"schedule": "keyframes", "bias_point": "prior"}
+    variants = {"today": {}, "epochs_prior": {"bias_point": "prior"}, "keyframes": fast,
+                "keyframes_chain": {**fast, "marginal_method": "chain"}}
     out: dict[str, Any] = {"world": world_name, "epochs": log.n_epochs,
                            "paths": _compare({k: (lambda v=v: ref.smooth_drone(log, **kw, **v))
                                               for k, v in variants.items()}, repeats, "today")}
     obj = {}
     for k, v in variants.items():
-        g, vals, _ = ref.solve_graph(log, **kw, **v)
+        g, vals, _ = ref.solve_graph(log, **kw, **{k: x for k, x in v.items()
+                                                    if k != "marginal_method"})
         obj[k] = g.error(vals)
         out["paths"][k]["objective"] = obj[k]
     out["keyframes_vs_epochs_prior_rel"] = abs(obj["keyframes"] - obj["epochs_prior"]) / obj[

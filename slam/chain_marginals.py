@@ -75,8 +75,9 @@ def jacobian_rows(graph: Any, values: Any, slots: Mapping[int, tuple[int, int]],
 
 
 def _triangularise(A: Array, k: int) -> tuple[Array, Array]:
-    """QR of the first ``k`` columns of ``A`` (m, k + w): ``(R, QᵀA[:, k:])`` with ``R``
-    (min(m, k), k) upper triangular (LAPACK ``geqrf`` and ``ormqr``)."""
+    """QR of the first ``k`` columns of ``A`` (m, k + w) (LAPACK ``geqrf``, ``ormqr``):
+    ``(QR, QᵀA[:, k:])``, ``QR`` as ``geqrf`` leaves it (``R`` on and above the
+    diagonal of its first ``min(m, k)`` rows, the reflectors below)."""
     qr, tau, _, info = lapack.dgeqrf(A[:, :k])
     if info:
         raise np.linalg.LinAlgError(f"geqrf: info {info}")
@@ -86,7 +87,7 @@ def _triangularise(A: Array, k: int) -> tuple[Array, Array]:
                                       lwork=max(1, 64 * rest.shape[1]))
         if info:
             raise np.linalg.LinAlgError(f"ormqr: info {info}")
-    return np.triu(qr[:k]), rest
+    return qr, rest
 
 
 def chain_marginals(local: Array, glob: Array, base: Array, M: int
@@ -104,23 +105,26 @@ def chain_marginals(local: Array, glob: Array, base: Array, M: int
     rows = np.hstack([local, glob])[order]
     groups = np.split(rows, np.searchsorted(base[order], np.arange(1, M)))
     R_jj, R_jy = np.empty((M, n, n)), np.zeros((M, n, n + g))
-    carried = np.zeros((0, n + g))  # columns [x_j, L]
+    carried_x, carried_l = np.zeros((0, n)), np.zeros((0, g))  # on [x_j], [L]
     global_rows = []
     for j in range(M):
         last = j == M - 1
-        group = np.delete(groups[j], np.s_[n:2 * n], axis=1) if last else groups[j]
-        top = carried if last else np.hstack(
-            [carried[:, :n], np.zeros((len(carried), n)), carried[:, n:]])
+        group, c = groups[j], len(carried_x)
+        stacked = np.zeros((c + len(group), 2 * n + g))
+        stacked[:c, :n], stacked[:c, 2 * n:], stacked[c:] = carried_x, carried_l, group
+        if last:
+            stacked = np.delete(stacked, np.s_[n:2 * n], axis=1)
         k = n if last else 2 * n
-        R, rest = _triangularise(np.vstack([top, group]), k)
-        if R.shape[0] < n or np.any(np.diagonal(R[:n, :n]) == 0.0):
+        qr, rest = _triangularise(stacked, k)
+        r = min(len(qr), k)
+        R_jj[j] = np.triu(qr[:n, :n])
+        if r < n or np.any(np.diagonal(R_jj[j]) == 0.0):
             raise np.linalg.LinAlgError(f"epoch {j}: the marginal is indeterminate")
-        R_jj[j] = R[:n, :n]
         R_jy[j, :, n:] = rest[:n]
         if not last:
-            R_jy[j, :, :n] = R[:n, n:]
-            carried = np.hstack([R[n:, n:], rest[n:len(R)]])
-        global_rows.append(rest[len(R):])
+            R_jy[j, :, :n] = qr[:n, n:2 * n]
+            carried_x, carried_l = np.triu(qr[n:r, n:2 * n]), rest[n:r]
+        global_rows.append(rest[r:])
     if g:
         R_LL = np.linalg.qr(np.vstack(global_rows), mode="r")
         if R_LL.shape[0] < g or np.any(np.diagonal(R_LL) == 0.0):
