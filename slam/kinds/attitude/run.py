@@ -38,21 +38,13 @@ right perturbation, as GTSAM's ``Rot3.retract``), bias error :math:`b = \hat b +
   core's central difference through the spaces; the measurement Jacobians are analytic
   (:math:`[I_3\ 0]` and :math:`[[C^\top r_j]_\times\ 0]`).
 
-The smoother (:func:`smooth_attitude`) is GTSAM on the same log: ``Rot3`` states and
-``Vector3`` bias states at the star epochs; the interval's gyro samples preintegrated by
-``PreintegratedAhrsMeasurements`` into ``AHRSFactor(R_j, R_{j+1}, B_j)`` (the factor takes
-one bias key: the bias is held at ``B_j`` over the interval, exactly as in the filters);
-``BetweenFactorVector(B_j, B_{j+1})`` with :math:`\sigma_b\sqrt T` for the random walk;
-``PriorFactorRot3`` per star quaternion (or ``AttitudeFactorRot3`` per star vector);
-priors on ``R_0``, ``B_0`` equal to the filters' initial belief.  Its marginals are
-body-frame (right perturbation), the same chart as the filters', so they go into the
-same NEES without conversion.
+The smoother (:func:`~slam.kinds.attitude.smoother.smooth_attitude`) is GTSAM on the same
+log (:mod:`slam.kinds.attitude.smoother`).
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -62,9 +54,8 @@ from numpy.typing import NDArray
 
 from estimators import Measurement, make_filter, wrap_angle
 from nav.euler import euler_error_jacobian, euler_zxy_to_q, q_to_euler_zxy
-from nav.gyro import dead_reckoning, interval_transition
+from nav.gyro import interval_transition
 from nav.observations import direction_measurement, quaternion_measurement
-from nav.quaternion import dcm_to_q
 from slam.failures import run_reference
 from slam.kinds.attitude.decision import decide_attitude
 from slam.kinds.attitude.filtering import (  # noqa: F401  (re-exported)
@@ -75,6 +66,7 @@ from slam.kinds.attitude.filtering import (  # noqa: F401  (re-exported)
     star_observation,
 )
 from slam.kinds.attitude.simulate import AttitudeLog, AttitudeSimConfig, simulate_attitude
+from slam.kinds.attitude.smoother import smooth_attitude  # noqa: F401  (re-exported)
 from slam.results import REFERENCE, EstimateSeries, EstimatorRun, RunOutcome
 from slam.scoring import anees_stats, nees_series, per_epoch_anees, scored_runs, timing
 
@@ -138,81 +130,6 @@ def initial_belief(world, log: AttitudeLog) -> tuple[Array, Array]:
 # --------------------------------------------------------------------------- filtering
 
 # --------------------------------------------------------------------------- smoothing
-
-def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
-                    star_sigma: float, marginals: bool = True) -> EstimateSeries:
-    """GTSAM batch smoother on the same log (see the module docstring).
-
-    ``time_s`` covers building the graph (preintegration included) and the
-    Levenberg-Marquardt solve; ``extra_time_s`` the marginal covariances.
-    """
-    import gtsam
-
-    t0 = time.perf_counter()
-    M, n, dt = log.n_star, log.samples_per_star, log.dt
-    X = [gtsam.symbol("x", j) for j in range(M)]
-    B = [gtsam.symbol("b", j) for j in range(M)]
-    graph = gtsam.NonlinearFactorGraph()
-    values = gtsam.Values()
-
-    def rot(q: Array) -> Any:
-        return gtsam.Rot3.Quaternion(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
-
-    params = gtsam.PreintegratedRotationParams()
-    params.setGyroscopeCovariance(arw**2 * np.eye(3))
-    sig_att0 = math.sqrt(P0[0, 0])
-    sig_b0 = math.sqrt(P0[3, 3])
-    graph.add(gtsam.PriorFactorRot3(X[0], rot(x0[:4]),
-                                    gtsam.noiseModel.Isotropic.Sigma(3, sig_att0)))
-    graph.add(gtsam.PriorFactorVector(B[0], np.zeros(3),
-                                      gtsam.noiseModel.Isotropic.Sigma(3, sig_b0)))
-    rw_noise = gtsam.noiseModel.Isotropic.Sigma(3, max(bias_rw * math.sqrt(n * dt), 1e-15))
-    if log.star_q is not None:
-        star_noise = gtsam.noiseModel.Isotropic.Sigma(3, star_sigma)
-        for j in range(M):
-            graph.add(gtsam.PriorFactorRot3(X[j], rot(log.star_q[j]), star_noise))
-        guesses = log.star_q
-    else:
-        vec_noise = gtsam.noiseModel.Isotropic.Sigma(2, star_sigma)
-        refs = [gtsam.Unit3(r) for r in log.star_refs]
-        for j in range(M):
-            for r, b in zip(refs, log.star_vectors[j]):
-                graph.add(gtsam.AttitudeFactorRot3(X[j], r, vec_noise, gtsam.Unit3(b)))
-        guesses = dead_reckoning(x0[:4], (log.gyro_block(j) for j in range(M - 1)), dt)
-    zero3 = np.zeros(3)
-    for j in range(M):
-        values.insert(X[j], rot(guesses[j]))
-        values.insert(B[j], zero3)
-        if j + 1 < M:
-            pim = gtsam.PreintegratedAhrsMeasurements(params, zero3)
-            for w in log.gyro_block(j):
-                pim.integrateMeasurement(w, dt)
-            graph.add(gtsam.AHRSFactor(X[j], X[j + 1], B[j], pim))
-            graph.add(gtsam.BetweenFactorVector(B[j], B[j + 1], zero3, rw_noise))
-    # The problem is nearly linear: from the star-measurement (or dead-reckoned) start LM
-    # takes two steps; the second changes ½χ² by ~1e-7 relative, and tighter tolerances
-    # only add rejected LM trials (Gauss-Newton confirms the optimum to 1e-12).
-    lm = gtsam.LevenbergMarquardtParams()
-    lm.setRelativeErrorTol(1e-6)
-    lm.setAbsoluteErrorTol(1e-9)
-    result = gtsam.LevenbergMarquardtOptimizer(graph, values, lm).optimize()
-    means = np.empty((M, 7))
-    means[:, :4] = dcm_to_q(np.array([result.atRot3(k).matrix() for k in X]))
-    means[:, 4:] = np.array([result.atVector(k) for k in B])
-    solve_s = time.perf_counter() - t0
-    covs = np.full((M, 6, 6), np.nan)
-    t1 = time.perf_counter()
-    if marginals:
-        marg = gtsam.Marginals(graph, result)
-        for j in range(M):
-            jm = marg.jointMarginalCovariance([X[j], B[j]])
-            covs[j, :3, :3] = jm.at(X[j], X[j])
-            covs[j, :3, 3:] = jm.at(X[j], B[j])
-            covs[j, 3:, :3] = jm.at(B[j], X[j])
-            covs[j, 3:, 3:] = jm.at(B[j], B[j])
-    return EstimateSeries(REFERENCE, means, covs, M - 1, nis=np.full(M, np.nan), nis_dof=0,
-                          time_s=solve_s, extra_time_s=time.perf_counter() - t1)
-
 
 # --------------------------------------------------------------------------- scoring
 
