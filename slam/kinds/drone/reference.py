@@ -93,8 +93,8 @@ KEYFRAME_FEED = 10
 #: Schedules and preintegration bias points of :func:`solve_graph`, and the defaults.
 SCHEDULES = ("epochs", "keyframes")
 BIAS_POINTS = ("estimate", "prior")
-SCHEDULE = "epochs"
-BIAS_POINT = "estimate"
+SCHEDULE = "keyframes"
+BIAS_POINT = "prior"
 #: The marginals' methods (:func:`_marginals`) and the default.
 MARGINAL_METHODS = ("joint", "chain")
 MARGINAL_METHOD = "joint"
