@@ -15,6 +15,7 @@ filters count them as divergences, the smoother as a failed reference).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import signal
@@ -250,20 +251,27 @@ def _stop_signals() -> Iterator[dict[str, int]]:
               help="batched: chunks of runs go through the filters at once (the runs as an "
                    "array axis; kinds without it run per run); per-run: one run per task, the "
                    "reference path. Both give the same numbers to round-off.")
+@click.option("--online", is_flag=True,
+              help="Also score iSAM2's current pose after every epoch (row isam2, the online "
+                   "optimum) - planar worlds; the world's [filters] online.")
+@click.option("--fixed-lag", "fixed_lags", type=float, multiple=True, metavar="S",
+              help="Also score a fixed-lag smoother of lag S seconds, in [0, 1e6] (row "
+                   "fls-<S>s; repeatable) - planar worlds; adds to [filters] fixed_lags_s.")
 @click.option("--log", "log_file", metavar="FILE",
               help="Run the filters and the GTSAM smoother on a recorded log in GTSAM's planar "
                    "text format (ODOMETRY/LANDMARK lines, e.g. victoria_park.txt) instead of a "
                    "world; the filters are scored against the smoother.")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, executor: str, log_file: str | None) -> None:
+            no_plots: bool, mode: str | None, executor: str, online: bool,
+            fixed_lags: tuple[float, ...], log_file: str | None) -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
     and write summary.json, report.md/.html, figures and TUM trajectories; or, with --log,
     run the filters and the smoother on a recorded log (one run)."""
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor)
+                 caught, executor, online, fixed_lags)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -271,13 +279,16 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
 def _run(world: str | None, filters: str | None, runs: int | None, seed: int | None,
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
-         executor: str = "batched") -> None:
+         executor: str = "batched", online: bool = False,
+         fixed_lags: tuple[float, ...] = ()) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is not None:
         w, kind = _open_log(log_file, world, filters, runs, seed, workers, scheduler, mode)
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
+    own_rows = _online_rows(w.filters)
+    w = _with_online(w, online, fixed_lags)
     _load_kind(kind, caught, plots=not no_plots)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     gap = w.filters.missing(names) if hasattr(w.filters, "missing") else None
@@ -300,11 +311,40 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
     campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
                 "seed": w.seed if seed is None else seed, "mode": world_mode,
                 "filters": names, "executor": executor}
+    rows = _online_rows(w.filters)
+    if rows:
+        campaign["online"] = rows
     if out is None:
         own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
-               "filters": None if log_file is not None and filters else list(w.filters.names)}
+               "filters": None if log_file is not None and filters else list(w.filters.names),
+               "online": own_rows}
         out = Path("out") / default_folder(w.name, campaign, own)
     _run_and_write(w, kind, campaign, workers, scheduler, out, not no_plots)
+
+
+def _online_rows(fs: Any) -> list[str]:
+    """The online rows a ``[filters]`` section asks for (``isam2``, ``fls-<lag>s``)."""
+    lags = [f"fls-{lag:g}s" for lag in getattr(fs, "fixed_lags_s", ())]
+    return (["isam2"] if getattr(fs, "online", False) else []) + lags
+
+
+def _with_online(w: Any, online: bool, fixed_lags: tuple[float, ...]) -> Any:
+    """``--online`` / ``--fixed-lag S``: the world with those rows added (planar kinds)."""
+    if not online and not fixed_lags:
+        return w
+    if not hasattr(w.filters, "online"):
+        opt = "--online" if online else "--fixed-lag"
+        raise InputError(f"{opt}: world {w.name} (kind {w.kind}) has no online rows "
+                         "(planar-slam worlds only)")
+    for lag in fixed_lags:
+        if not (math.isfinite(lag) and 0.0 <= lag <= 1e6):
+            raise InputError(f"--fixed-lag {lag:g}: must be in [0, 1e6] seconds")
+    lags = list(w.filters.fixed_lags_s)
+    for lag in fixed_lags:
+        if f"{lag:g}" not in {f"{x:g}" for x in lags}:
+            lags.append(float(lag))
+    return replace(w, filters=replace(w.filters, online=w.filters.online or online,
+                                      fixed_lags_s=tuple(lags)))
 
 
 def _slug(name: str) -> str:
@@ -323,6 +363,8 @@ def default_folder(name: str, campaign: dict[str, Any], own: dict[str, Any]) -> 
         parts.append(campaign["mode"])
     if list(campaign["filters"]) != list(own["filters"] or ()):
         parts.append("+".join(campaign["filters"]))
+    if campaign.get("online", []) != own.get("online", []):
+        parts.append("+".join(campaign["online"]))
     return "-".join([_slug(name), *parts])[:160]
 
 

@@ -86,7 +86,14 @@ HOW_TO_READ = (
     "beat. The `gtsam` row is the batch-optimal smoother (GTSAM) on the very same "
     "measurements, using all of them at once: the gap between a filter and it is the "
     "filter's loss. Time per epoch is one filter epoch: the prediction over a sensor "
-    "period plus the batch update (wall clock)."
+    "period plus the batch update (wall clock). The online rows, when asked for "
+    "([filters] online / fixed_lags_s, --online / --fixed-lag S), use only the "
+    "measurements up to each epoch, like a filter: `isam2` is iSAM2's current pose and "
+    "its marginal covariance after every epoch - the online optimum (the MAP estimate "
+    "given the measurements so far), the yardstick a filter's pose and NEES are judged "
+    "against; `fls-<lag>s` is a fixed-lag smoother keeping the poses of the last <lag> "
+    "seconds and the whole map. The final map of every estimator is judged against the "
+    "smoother, which has used every measurement. The online rows are not ranked."
 )
 
 
