@@ -97,6 +97,38 @@ HOW_TO_READ = (
 )
 
 
+def _segment_cell(entry: dict[str, Any]) -> str:
+    if "anees" not in entry:
+        return "—"
+    return f"{entry['anees']:.2f} / {100 * entry['in_band']:.0f} % ({entry['epochs']})"
+
+
+def segments_section(summary: dict[str, Any]) -> Section | None:
+    """Pose NEES / 3 per time segment (:mod:`slam.kinds.planar.segments`) and each
+    estimator's ratio to the online optimum there."""
+    seg = summary.get("segments") or {}
+    rows_in = seg.get("estimators") or {}
+    if not rows_in:
+        return None
+    has_ratio = any("ratio_to_isam2" in r for r in rows_in.values())
+    header = ["estimator", "before closure", "window after it", "rest"]
+    if has_ratio:
+        header += ["÷ isam2: before", "window", "rest"]
+    rows = []
+    for name, r in rows_in.items():
+        row = [name, *(_segment_cell(r[k]) for k in ("before", "window", "rest"))]
+        if has_ratio:
+            ratio = r.get("ratio_to_isam2", {})
+            row += [f"{ratio[k]:.2f}" if k in ratio else "—" for k in ("before", "window", "rest")]
+        rows.append(row)
+    closure = seg.get("closure_epoch_range")
+    when = (f"closure at epoch {closure[0]}" if closure and closure[0] == closure[1] else
+            f"closure at epochs {closure[0]}-{closure[1]}" if closure else "no loop closure")
+    text = (f"ANEES / share of epochs in band (epochs) per segment: {seg['definition']}; "
+            f"{when} ({seg['runs_with_closure']} of {summary.get('runs')} runs).")
+    return Section("Where the gap sits: NEES / 3 per segment", header, rows, text=text)
+
+
 def planar_sections(summary: dict[str, Any]) -> list[Section]:
     """Results, the paper's ranges next to ours, and how to read them."""
     paper = paper_ranges_section(
@@ -104,8 +136,9 @@ def planar_sections(summary: dict[str, Any]) -> list[Section]:
         "Ours are the minimum and maximum x / y error over every epoch of every run that did "
         "not diverge.")
     head, *rest = decision_sections(summary) or [None]
-    return [s for s in (head, Section("Results", RESULTS.header, result_rows(summary)), *rest,
-                        paper, Section("How to read this", text=HOW_TO_READ)) if s is not None]
+    return [s for s in (head, Section("Results", RESULTS.header, result_rows(summary)),
+                        segments_section(summary), *rest, paper,
+                        Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 
 # --------------------------------------------------------------------------- TUM

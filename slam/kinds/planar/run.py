@@ -23,6 +23,7 @@ from slam.kinds.planar.online import (
 )
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
+from slam.kinds.planar.segments import run_events, segment_summary
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import dead_reckoning_batch, epochs_of, run_slam_batch
 from slam.kinds.planar.variants import INVARIANT_BASES
@@ -82,7 +83,8 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
                     reference)
         k = keep[i]
         out.append(RunOutcome(run, scores[i], tracks[i], truths[i] if k else None,
-                              log.landmarks if k else None, steps[i] * log.dt if k else None))
+                              log.landmarks if k else None, steps[i] * log.dt if k else None,
+                              run_events(log, steps[i])))
     return out
 
 
@@ -181,6 +183,7 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
         **({"online": {n: entries[n] for n in online}} if online else {}),
         "baselines": {ODOMETRY: entries[ODOMETRY]},
         "reference": {REFERENCE: entries[REFERENCE]},
+        "segments": segment_summary(outcomes, filters + online),
         "paper": world.paper,
     }
     ranked = filters + [REFERENCE]
