@@ -111,7 +111,7 @@ class RunOutcome:
     truth: Array | None = None
     true_landmarks: Array | None = None
     times: Array | None = None
-    events: dict[str, int] = field(default_factory=dict)
+    events: dict[str, int] = field(default_factory=dict, kw_only=True)
 
 
 @dataclass(frozen=True)

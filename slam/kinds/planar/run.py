@@ -84,7 +84,7 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
         k = keep[i]
         out.append(RunOutcome(run, scores[i], tracks[i], truths[i] if k else None,
                               log.landmarks if k else None, steps[i] * log.dt if k else None,
-                              run_events(log, steps[i])))
+                              events=run_events(log, steps[i])))
     return out
 
 
