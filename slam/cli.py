@@ -15,7 +15,6 @@ filters count them as divergences, the smoother as a failed reference).
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import signal
@@ -287,8 +286,13 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         workers, own_mode = 1, None if mode else w.filters.mode
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
-    own_rows = _online_rows(w.filters)
-    w = _with_online(w, online, fixed_lags)
+    from slam.kinds.planar.world import online_rows, with_online
+
+    own_rows = online_rows(w.filters)
+    try:
+        w = with_online(w, online, fixed_lags)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     _load_kind(kind, caught, plots=not no_plots)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     gap = w.filters.missing(names) if hasattr(w.filters, "missing") else None
@@ -311,7 +315,7 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
     campaign = {"world": w.name, "source": w.source, "kind": w.kind, "runs": runs or w.runs,
                 "seed": w.seed if seed is None else seed, "mode": world_mode,
                 "filters": names, "executor": executor}
-    rows = _online_rows(w.filters)
+    rows = online_rows(w.filters)
     if rows:
         campaign["online"] = rows
     if out is None:
@@ -320,31 +324,6 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
                "online": own_rows}
         out = Path("out") / default_folder(w.name, campaign, own)
     _run_and_write(w, kind, campaign, workers, scheduler, out, not no_plots)
-
-
-def _online_rows(fs: Any) -> list[str]:
-    """The online rows a ``[filters]`` section asks for (``isam2``, ``fls-<lag>s``)."""
-    lags = [f"fls-{lag:g}s" for lag in getattr(fs, "fixed_lags_s", ())]
-    return (["isam2"] if getattr(fs, "online", False) else []) + lags
-
-
-def _with_online(w: Any, online: bool, fixed_lags: tuple[float, ...]) -> Any:
-    """``--online`` / ``--fixed-lag S``: the world with those rows added (planar kinds)."""
-    if not online and not fixed_lags:
-        return w
-    if not hasattr(w.filters, "online"):
-        opt = "--online" if online else "--fixed-lag"
-        raise InputError(f"{opt}: world {w.name} (kind {w.kind}) has no online rows "
-                         "(planar-slam worlds only)")
-    for lag in fixed_lags:
-        if not (math.isfinite(lag) and 0.0 <= lag <= 1e6):
-            raise InputError(f"--fixed-lag {lag:g}: must be in [0, 1e6] seconds")
-    lags = list(w.filters.fixed_lags_s)
-    for lag in fixed_lags:
-        if f"{lag:g}" not in {f"{x:g}" for x in lags}:
-            lags.append(float(lag))
-    return replace(w, filters=replace(w.filters, online=w.filters.online or online,
-                                      fixed_lags_s=tuple(lags)))
 
 
 def _slug(name: str) -> str:

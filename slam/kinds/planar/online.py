@@ -53,18 +53,12 @@ from slam.kinds.planar.reference import (
     polish,
     relative_motions,
 )
+from slam.kinds.planar.world import ONLINE, fixed_lag_name
 
 Array = NDArray[np.float64]
 
-#: Name of the online-optimum row.
-ONLINE = "isam2"
 #: Relative-decrease stopping tolerance of the fixed-lag smoother's LM.
 FLS_RELATIVE_TOL = 1e-8
-
-
-def fixed_lag_name(lag_s: float) -> str:
-    """The row name of a fixed-lag smoother: ``fls-2s``, ``fls-0.5s``."""
-    return f"fls-{lag_s:g}s"
 
 
 @dataclass(frozen=True)

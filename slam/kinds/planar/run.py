@@ -14,19 +14,14 @@ import numpy as np
 
 from slam.decision import decide
 from slam.failures import run_reference
-from slam.kinds.planar.online import (
-    ONLINE,
-    OnlineTrack,
-    fixed_lag_name,
-    fixed_lag_planar,
-    online_planar,
-)
+from slam.kinds.planar.online import OnlineTrack, fixed_lag_planar, online_planar
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.segments import run_events, segment_summary
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import dead_reckoning_batch, epochs_of, run_slam_batch
 from slam.kinds.planar.variants import INVARIANT_BASES
+from slam.kinds.planar.world import ONLINE, fixed_lag_name, online_rows
 from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
 
@@ -91,9 +86,7 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
 def online_names(world) -> list[str]:
     """The online rows a planar world asks for: ``isam2`` (``[filters] online``), then one
     ``fls-<lag>s`` per ``[filters] fixed_lags_s``."""
-    fs = world.filters
-    return ([ONLINE] if getattr(fs, "online", False) else []) + [
-        fixed_lag_name(lag) for lag in getattr(fs, "fixed_lags_s", ())]
+    return online_rows(world.filters)
 
 
 def _graph_rows(world, log, steps, truth, scores: dict, tracks: dict | None,

@@ -33,7 +33,7 @@ import json
 import math
 import operator
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib.resources.abc import Traversable
 from typing import Any
 
@@ -372,6 +372,41 @@ def check_lags(lags: tuple[float, ...], at: ws.Where) -> None:
     for i, n in enumerate(names):
         if n in names[:i]:
             raise at.item(i).error(f"repeats lag {n} s", lags[i])
+
+
+ONLINE = "isam2"
+"""Name of the online-optimum row (:mod:`slam.kinds.planar.online`)."""
+
+
+def fixed_lag_name(lag_s: float) -> str:
+    """The row name of a fixed-lag smoother: ``fls-2s``, ``fls-0.5s``."""
+    return f"fls-{lag_s:g}s"
+
+
+def online_rows(fs: Any) -> list[str]:
+    """The online rows a ``[filters]`` section asks for (``isam2``, ``fls-<lag>s``; none for
+    a kind without them)."""
+    lags = [fixed_lag_name(lag) for lag in getattr(fs, "fixed_lags_s", ())]
+    return ([ONLINE] if getattr(fs, "online", False) else []) + lags
+
+
+def with_online(w: Any, online: bool, fixed_lags: tuple[float, ...]) -> Any:
+    """``--online`` / ``--fixed-lag S``: world ``w`` with those rows added; ``ValueError``
+    (the one-line message) for a kind without online rows or a lag outside [0, 1e6] s."""
+    if not online and not fixed_lags:
+        return w
+    if not hasattr(w.filters, "online"):
+        opt = "--online" if online else "--fixed-lag"
+        raise ValueError(f"{opt}: world {w.name} (kind {w.kind}) has no online rows "
+                         "(planar-slam worlds only)")
+    lags = list(w.filters.fixed_lags_s)
+    for lag in fixed_lags:
+        if not (math.isfinite(lag) and 0.0 <= lag <= MAX_LAG_S):
+            raise ValueError(f"--fixed-lag {lag:g}: must be in [0, 1e6] seconds")
+        if f"{lag:g}" not in {f"{x:g}" for x in lags}:
+            lags.append(float(lag))
+    return replace(w, filters=replace(w.filters, online=w.filters.online or online,
+                                      fixed_lags_s=tuple(lags)))
 
 
 def _steps(length: float, speed: float, dt: float) -> float:

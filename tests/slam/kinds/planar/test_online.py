@@ -14,7 +14,6 @@ from gtsam.symbol_shorthand import X
 from slam import cli
 from slam.campaign import run_campaign
 from slam.kinds.planar.online import (
-    ONLINE,
     at_filter_epochs,
     fixed_lag_planar,
     online_planar,
@@ -32,6 +31,8 @@ from slam.kinds.planar.reference import (
 from slam.kinds.planar.segments import CLOSURE, WINDOW_END, loop_closure_step, run_events
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import epochs_of
+from slam.kinds.planar.world import ONLINE
+from slam.nulls import unexplained_nulls
 from tests.slam.test_cli import SMALL_WORLD
 from tests.small_worlds import small_world
 from worlds import WorldError
@@ -183,6 +184,7 @@ def test_a_campaign_scores_the_online_rows_apart_from_the_filters():
         assert ratio[part] == pytest.approx(want)
     for metric in s["ranking"].values():
         assert metric["order"] == ["ekf"]  # the online rows are not ranked
+    assert unexplained_nulls(s) == []
 
 
 @pytest.mark.parametrize("options, key, why", [
