@@ -222,6 +222,12 @@ def _stop_signals() -> Iterator[dict[str, int]]:
               help="batched: chunks of runs go through the filters at once (the runs as an "
                    "array axis; kinds without it run per run); per-run: one run per task, the "
                    "reference path. Both give the same numbers to round-off.")
+@click.option("--online", is_flag=True,
+              help="Also score iSAM2's current pose after every epoch (row isam2, the online "
+                   "optimum) - planar worlds; the world's [filters] online.")
+@click.option("--fixed-lag", "fixed_lags", type=float, multiple=True, metavar="S",
+              help="Also score a fixed-lag smoother of lag S seconds, in [0, 1e6] (row "
+                   "fls-<S>s; repeatable) - planar worlds; adds to [filters] fixed_lags_s.")
 @click.option("--log", "log_file", metavar="FILE",
               help="Run the filters and the GTSAM smoother on a recorded log instead of a "
                    "world: GTSAM's planar text format (ODOMETRY/LANDMARK lines, e.g. "
@@ -243,7 +249,8 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "path).")
 def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int | None,
             out: Path | None, workers: int | None, scheduler: str | None,
-            no_plots: bool, mode: str | None, executor: str, log_file: str | None,
+            no_plots: bool, mode: str | None, executor: str, online: bool,
+            fixed_lags: tuple[float, ...], log_file: str | None,
             holdout: int | None = None, outages: tuple[str, ...] = (),
             tum: str = "run0") -> None:
     """Run a Monte Carlo campaign on WORLD (a bundled name or a .toml path; default bailey)
@@ -252,7 +259,7 @@ def run_cmd(world: str | None, filters: str | None, runs: int | None, seed: int 
     with _stop_signals() as caught:
         try:
             _run(world, filters, runs, seed, out, workers, scheduler, no_plots, mode, log_file,
-                 caught, executor, tum == "all", holdout, outages)
+                 caught, executor, tum == "all", holdout, outages, online, fixed_lags)
         except KeyboardInterrupt:
             raise Interrupted(caught["signum"]) from None
 
@@ -261,7 +268,8 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
          out: Path | None, workers: int | None, scheduler: str | None, no_plots: bool,
          mode: str | None, log_file: str | None, caught: dict[str, int],
          executor: str = "batched", tum_all: bool = False, holdout: int | None = None,
-         outages: tuple[str, ...] = ()) -> None:
+         outages: tuple[str, ...] = (), online: bool = False,
+         fixed_lags: tuple[float, ...] = ()) -> None:
     """``slam run``: validate everything, prepare the output, run, write."""
     if log_file is None and (holdout is not None or outages):
         raise InputError(f"{'--holdout' if holdout is not None else '--outage'} applies to "
@@ -272,6 +280,13 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
         workers, own_mode = 1, None if mode else getattr(w.filters, "mode", None)
     else:
         w, kind, own_mode = _open_world(world or "bailey", mode)
+    from slam.kinds.planar.world import online_rows, with_online
+
+    own_rows = online_rows(w.filters)
+    try:
+        w = with_online(w, online, fixed_lags)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     _load_kind(kind, caught, plots=not no_plots)
     names = _parse_filters(filters, w.filters.names, kind.filters)
     gap = w.filters.missing(names) if hasattr(w.filters, "missing") else None
@@ -296,9 +311,13 @@ def _run(world: str | None, filters: str | None, runs: int | None, seed: int | N
                 "filters": names, "executor": executor}
     if tum_all:
         campaign["tum"] = "all"
+    rows = online_rows(w.filters)
+    if rows:
+        campaign["online"] = rows
     if out is None:
         own = {"runs": w.runs, "seed": w.seed, "mode": own_mode,
-               "filters": None if log_file is not None and filters else list(w.filters.names)}
+               "filters": None if log_file is not None and filters else list(w.filters.names),
+               "online": own_rows}
         out = Path("out") / default_folder(w.name, campaign, own)
     _run_and_write(w, kind, campaign, workers, scheduler, out, not no_plots)
 
@@ -319,6 +338,8 @@ def default_folder(name: str, campaign: dict[str, Any], own: dict[str, Any]) -> 
         parts.append(campaign["mode"])
     if list(campaign["filters"]) != list(own["filters"] or ()):
         parts.append("+".join(campaign["filters"]))
+    if campaign.get("online", []) != own.get("online", []):
+        parts.append("+".join(campaign["online"]))
     return "-".join([_slug(name), *parts])[:160]
 
 

@@ -101,7 +101,9 @@ class RunScores(SlamRunScores):
 
 @dataclass(frozen=True)
 class RunOutcome:
-    """Everything one Monte Carlo run returns: scores per estimator (and tracks)."""
+    """Everything one Monte Carlo run returns: scores per estimator (and tracks), and
+    ``events``: epoch indices of named events of the run (the planar kind's loop closure,
+    :mod:`slam.kinds.planar.segments`)."""
 
     run: int
     scores: dict[str, RunScores]
@@ -109,6 +111,7 @@ class RunOutcome:
     truth: Array | None = None
     true_landmarks: Array | None = None
     times: Array | None = None
+    events: dict[str, int] = field(default_factory=dict, kw_only=True)
 
 
 @dataclass(frozen=True)

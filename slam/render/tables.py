@@ -128,9 +128,10 @@ def diverged_cell(entry: dict[str, Any]) -> str:
 
 
 def estimator_entries(summary: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
-    """``(name, entry)`` of every estimator in table order: the filters, then the
-    baselines (odometry, IMU only), then the reference smoother."""
-    return [(name, entry) for group in ("filters", "baselines", "reference")
+    """``(name, entry)`` of every estimator in table order: the filters, the online rows
+    (iSAM2, fixed-lag smoothers: planar), the baselines (odometry, IMU only), then the
+    reference smoother."""
+    return [(name, entry) for group in ("filters", "online", "baselines", "reference")
             for name, entry in (summary.get(group) or {}).items()]
 
 

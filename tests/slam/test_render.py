@@ -53,13 +53,15 @@ def test_html_is_self_contained(written):
     assert {"summary.json", "report.md", "srckf.tum", "truth.tum"} <= set(links)
     assert all("/" not in h and ":" not in h and (out / h).is_file() for h in links), links
     assert not re.search(r"<(?:link|script)\b|@import|url\(", text, re.I)
-    # results header + rows, a ranking table (header + filters) per headline metric, paper
-    # header + 2 rows, provenance header + its items
+    # results header + rows, the segments (header + filters), a ranking table (header +
+    # filters) per headline metric, paper header + 2 rows, provenance header + its items
     summary = strict_loads((out / "summary.json").read_text())
     prov = provenance_rows(summary["provenance"])
     ranks = sum(1 + len(b["rows"]) for b in summary["ranking"].values())
     assert ranks == 2 * (1 + 2)  # position and landmarks, ekf and srckf
-    assert text.count("<tr>") == 1 + len(ROWS) + ranks + 1 + 2 + 1 + len(prov)
+    segments = 1 + len(summary["segments"]["estimators"])
+    assert segments == 1 + 2
+    assert text.count("<tr>") == 1 + len(ROWS) + segments + ranks + 1 + 2 + 1 + len(prov)
     assert "<td>odometry</td>" in text and "<td>gtsam</td>" in text
 
 

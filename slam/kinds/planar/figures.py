@@ -17,6 +17,7 @@ from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
     COINCIDE,
     FigureSpec,
+    default_colours,
     differences_figure,
     error_grid_figure,
     figure_table,
@@ -24,8 +25,9 @@ from slam.render.figures import (
     quoted_position_range,
     rmse_sigma_figure,
 )
+from slam.render.palette import filter_names
 from slam.render.series import Component
-from slam.results import CampaignResult
+from slam.results import REFERENCE, CampaignResult
 
 DEG = 180.0 / math.pi
 
@@ -50,6 +52,30 @@ POSE_ROWS = [[X, Y, HEADING], [_track("along-track", 0), _track("cross-track", 1
 _ERRORS_XY = error_grid_figure([X, Y, HEADING], "vehicle pose error (run 0 with its ±2σ; "
                                "Monte Carlo envelope)", groups=((0, 1), (2,)),
                                paper=quoted_position_range)
+
+
+ONLINE_COLOURS = ("black", "0.35", "tab:purple", "tab:cyan", "tab:olive", "tab:gray")
+"""The online rows' colours (iSAM2 first, then the fixed-lag smoothers)."""
+
+
+def online_row_names(result: CampaignResult) -> list[str]:
+    """The campaign's online rows (``isam2``, ``fls-<lag>s``), in summary order."""
+    return list((result.summary.get("online") or {}).keys())
+
+
+def with_online(result: CampaignResult) -> list[str]:
+    """The filters, the online rows, then the smoother, as far as run 0 scored them."""
+    scored = result.outcomes[0].scores
+    names = [*filter_names(result), *online_row_names(result), REFERENCE]
+    return [n for n in names if n in scored]
+
+
+def online_colours(result: CampaignResult) -> dict[str, str]:
+    """The default colours and one of :data:`ONLINE_COLOURS` per online row."""
+    out = default_colours(result)
+    for i, n in enumerate(online_row_names(result)):
+        out[n] = ONLINE_COLOURS[i % len(ONLINE_COLOURS)]
+    return out
 
 
 def plot_errors_xy(result: CampaignResult, path: Path) -> None:
@@ -77,8 +103,11 @@ def figure_specs() -> list[FigureSpec]:
         FigureSpec("nees.png", "Pose NEES / 3 and NIS / dof per epoch (run averages) "
                    "against their 95 % bands (dashed: constant band; grey: a band that "
                    "varies with the number of updates), with the fraction of epochs inside; "
-                   "right: histograms of the per-run time averages (1 = consistent).",
-                   consistency_figure([NeesSpec("pose NEES / 3", 3, lambda s: s.nees)])),
+                   "right: histograms of the per-run time averages (1 = consistent). The "
+                   "online rows (isam2: the online optimum; fls-<lag>s: fixed-lag "
+                   "smoothers), when run, are drawn beside the filters.",
+                   consistency_figure([NeesSpec("pose NEES / 3", 3, lambda s: s.nees)],
+                                      estimators=with_online, colours=online_colours)),
         FigureSpec("landmarks.png", "The filters' maps per epoch (run averages): RMSE and "
                    "NEES / 2 of the landmarks in the state (against the band), landmarks "
                    "in the state, trace of the map covariance; the smoother's final "

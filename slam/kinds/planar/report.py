@@ -103,8 +103,48 @@ HOW_TO_READ = (
     "beat. The `gtsam` row is the batch-optimal smoother (GTSAM) on the very same "
     "measurements, using all of them at once: the gap between a filter and it is the "
     "filter's loss. Time per epoch is one filter epoch: the prediction over a sensor "
-    "period plus the batch update (wall clock). " + landmark_anees_rule(2)
+    "period plus the batch update (wall clock). The online rows, when asked for "
+    "([filters] online / fixed_lags_s, --online / --fixed-lag S), use only the "
+    "measurements up to each epoch, like a filter: `isam2` is iSAM2's current pose and "
+    "its marginal covariance after every epoch - the online optimum (the MAP estimate "
+    "given the measurements so far), the yardstick a filter's pose and NEES are judged "
+    "against; `fls-<lag>s` is a fixed-lag smoother keeping the poses of the last <lag> "
+    "seconds and the whole map. The final map of every estimator is judged against the "
+    "smoother, which has used every measurement. The online rows are not ranked. "
+    + landmark_anees_rule(2)
 )
+
+
+def _segment_cell(entry: dict[str, Any]) -> str:
+    if "anees" not in entry:
+        return "—"
+    return f"{entry['anees']:.2f} / {100 * entry['in_band']:.0f} % ({entry['epochs']})"
+
+
+def segments_section(summary: dict[str, Any]) -> Section | None:
+    """Pose NEES / 3 per time segment (:mod:`slam.kinds.planar.segments`) and each
+    estimator's ratio to the online optimum there."""
+    seg = summary.get("segments") or {}
+    rows_in = seg.get("estimators") or {}
+    if not rows_in:
+        return None
+    has_ratio = any("ratio_to_isam2" in r for r in rows_in.values())
+    header = ["estimator", "before closure", "window after it", "rest"]
+    if has_ratio:
+        header += ["÷ isam2: before", "window", "rest"]
+    rows = []
+    for name, r in rows_in.items():
+        row = [name, *(_segment_cell(r[k]) for k in ("before", "window", "rest"))]
+        if has_ratio:
+            ratio = r.get("ratio_to_isam2", {})
+            row += [f"{ratio[k]:.2f}" if k in ratio else "—" for k in ("before", "window", "rest")]
+        rows.append(row)
+    closure = seg.get("closure_epoch_range")
+    when = (f"closure at epoch {closure[0]}" if closure and closure[0] == closure[1] else
+            f"closure at epochs {closure[0]}-{closure[1]}" if closure else "no loop closure")
+    text = (f"ANEES / share of epochs in band (epochs) per segment: {seg['definition']}; "
+            f"{when} ({seg['runs_with_closure']} of {summary.get('runs')} runs).")
+    return Section("Where the gap sits: NEES / 3 per segment", header, rows, text=text)
 
 
 def planar_sections(summary: dict[str, Any]) -> list[Section]:
@@ -116,7 +156,7 @@ def planar_sections(summary: dict[str, Any]) -> list[Section]:
     head, *rest = decision_sections(summary) or [None]
     results = Section("Results", RESULTS.header, result_rows(summary),
                       smoother_cost(summary, SMOOTHER))
-    return [s for s in (head, results, *rest,
+    return [s for s in (head, results, segments_section(summary), *rest,
                         paper, Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 

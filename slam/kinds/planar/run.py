@@ -14,11 +14,14 @@ import numpy as np
 
 from slam.decision import decide
 from slam.failures import run_reference
+from slam.kinds.planar.online import OnlineTrack, fixed_lag_planar, online_planar
 from slam.kinds.planar.reference import interpolate_reference, smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
+from slam.kinds.planar.segments import run_events, segment_summary
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import dead_reckoning_batch, epochs_of, run_slam_batch
 from slam.kinds.planar.variants import INVARIANT_BASES
+from slam.kinds.planar.world import ONLINE, fixed_lag_name, online_rows
 from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import ODOMETRY, REFERENCE, RunOutcome, Track
 from slam.scoring import landmark_anees_entries
@@ -72,28 +75,76 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
                                         np.zeros((0, 2)), np.zeros((0, 2, 2)))
     out = []
     for i, (run, log) in enumerate(zip(runs, logs)):
-        if reference:
-            _reference(log, steps[i], truths[i], scores[i], tracks[i] if keep[i] else None)
+        _graph_rows(world, log, steps[i], truths[i], scores[i], tracks[i] if keep[i] else None,
+                    reference)
         k = keep[i]
         out.append(RunOutcome(run, scores[i], tracks[i], truths[i] if k else None,
-                              log.landmarks if k else None, steps[i] * log.dt if k else None))
+                              log.landmarks if k else None, steps[i] * log.dt if k else None,
+                              events=run_events(log, steps[i])))
     return out
 
 
-def _reference(log, steps, truth, scores: dict, tracks: dict | None) -> None:
+def online_names(world) -> list[str]:
+    """The online rows a planar world asks for: ``isam2`` (``[filters] online``), then one
+    ``fls-<lag>s`` per ``[filters] fixed_lags_s``."""
+    return online_rows(world.filters)
+
+
+def _graph_rows(world, log, steps, truth, scores: dict, tracks: dict | None,
+                reference: bool) -> None:
+    """The rows from the factor graph: the online rows the world asks for and the GTSAM
+    smoother (from the online row's own iSAM2 pass when there is one, else the chunked
+    path).  A numerical failure marks that row diverged on this run with its reason."""
+    keep = tracks is not None
+    ref = failure = None
+    if getattr(world.filters, "online", False):
+        both, failure = run_reference(online_planar, log, steps, landmark_cov=keep)
+        track, ref = both if both is not None else (None, None)
+        _score_track(ONLINE, track, failure, log, steps, truth, scores, tracks)
+    for lag in getattr(world.filters, "fixed_lags_s", ()):
+        track, why = run_reference(fixed_lag_planar, log, steps, lag, landmark_cov=keep)
+        _score_track(fixed_lag_name(lag), track, why, log, steps, truth, scores, tracks)
+    if not reference:
+        return
+    if ref is None and failure is None:
+        ref, failure = run_reference(smooth_planar, log)
+    _reference(ref, failure, log, steps, truth, scores, tracks)
+
+
+def _score_track(name: str, track: OnlineTrack | None, failure: str | None, log, steps, truth,
+                 scores: dict, tracks: dict | None) -> None:
+    """Score an online row like a filter (no NIS: it has no innovations)."""
+    if track is None:
+        _failed(name, failure, log, steps, truth, scores, tracks)
+        return
+    s = reduce_run(name, track.poses, track.pose_cov, truth, track.landmark_ids,
+                   track.landmarks, log.landmarks, np.zeros(0), np.zeros(0, int), track.time_s)
+    scores[name] = replace(s, steps=len(steps) - 1)
+    if tracks is not None:
+        lm_cov = (track.landmark_cov if track.landmark_cov is not None
+                  else np.full((len(track.landmark_ids), 2, 2), np.nan))
+        tracks[name] = Track(name, track.poses, track.pose_cov, track.landmark_ids,
+                             track.landmarks, lm_cov)
+
+
+def _failed(name: str, failure: str | None, log, steps, truth, scores: dict,
+            tracks: dict | None) -> None:
+    nan = np.full((len(steps), 3), np.nan)
+    cov = np.full((len(steps), 3, 3), np.nan)
+    scores[name] = reduce_run(name, nan, cov, truth, np.zeros(0, int), np.zeros((0, 2)),
+                              log.landmarks, np.zeros(0), np.zeros(0, int), 0.0, True, failure)
+    if tracks is not None:
+        tracks[name] = Track(name, nan, cov, np.zeros(0, int), np.zeros((0, 2)),
+                             np.zeros((0, 2, 2)))
+
+
+def _reference(ref, failure: str | None, log, steps, truth, scores: dict,
+               tracks: dict | None) -> None:
     """The GTSAM smoother's scores (and track); a numerical failure of the smoother
     marks it diverged on this run with its reason (:mod:`slam.failures`)."""
     lms = log.landmarks
-    ref, failure = run_reference(smooth_planar, log)
     if ref is None:
-        nan = np.full((len(steps), 3), np.nan)
-        cov = np.full((len(steps), 3, 3), np.nan)
-        scores[REFERENCE] = reduce_run(REFERENCE, nan, cov, truth, np.zeros(0, int),
-                                       np.zeros((0, 2)), lms, np.zeros(0), np.zeros(0, int),
-                                       0.0, True, failure)
-        if tracks is not None:
-            tracks[REFERENCE] = Track(REFERENCE, nan, cov, np.zeros(0, int), np.zeros((0, 2)),
-                                      np.zeros((0, 2, 2)))
+        _failed(REFERENCE, failure, log, steps, truth, scores, tracks)
         return
     poses = interpolate_reference(ref, log)[steps]
     cov_all = np.full((log.n_steps + 1, 3, 3), np.nan)
@@ -114,7 +165,8 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
     """The ``summary.json`` dict of a planar SLAM campaign, with each filter's landmark
     ANEES (:func:`slam.scoring.landmark_anees_entries`), the paired ranking of the filters
     by position and landmark MSE and the headline (:func:`slam.decision.decide`)."""
-    names = filters + [ODOMETRY, REFERENCE]
+    online = online_names(world)
+    names = filters + online + [ODOMETRY, REFERENCE]
     entries = {n: summarize([o.scores[n] for o in outcomes]) for n in names}
     for n in filters:
         entries[n].update(landmark_anees_entries([
@@ -127,8 +179,10 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
         "seed": seed,
         "mode": world.filters.mode,
         "filters": {n: entries[n] for n in filters},
+        **({"online": {n: entries[n] for n in online}} if online else {}),
         "baselines": {ODOMETRY: entries[ODOMETRY]},
         "reference": {REFERENCE: entries[REFERENCE]},
+        "segments": segment_summary(outcomes, filters + online),
         "paper": world.paper,
     }
     ranked = filters + [REFERENCE]

@@ -17,7 +17,10 @@ File layout (degrees only in the file, with ``_deg`` in the key; radians in the 
                association ("known" | "nn"), gate_accept, gate_new,
                mode ("joint": sigma points over the whole state | "local": over the blocks
                a step touches, for ekf, srckf, srukf, srcdkf; see estimators/partitioned.py;
-               the variants are joint only)
+               the variants are joint only),
+               online (true: also score iSAM2's current pose after every epoch, row
+               "isam2"), fixed_lags_s ([s, ...] in [0, 1e6]: a fixed-lag smoother per lag,
+               rows "fls-<lag>s"); both off by default (slam/kinds/planar/online.py)
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 Keys of ``[vehicle]``, ``[sensor]``, ``[noise]`` and ``[filters]`` other than the start,
@@ -30,7 +33,7 @@ import json
 import math
 import operator
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib.resources.abc import Traversable
 from typing import Any
 
@@ -136,6 +139,27 @@ class FilterSpec(wc.TunedFilters):
 
 
 @dataclass(frozen=True)
+class PlanarFilterSpec(FilterSpec):
+    """:class:`FilterSpec` and the planar kind's online rows: ``online`` adds iSAM2's
+    current pose after every epoch (row ``isam2``), ``fixed_lags_s`` a fixed-lag smoother
+    per lag (rows ``fls-<lag>s``; :mod:`slam.kinds.planar.online`)."""
+
+    online: bool = False
+    fixed_lags_s: tuple[float, ...] = ()
+
+
+MAX_LAG_S = 1e6
+"""Longest fixed lag (s)."""
+
+
+class Lags(ws.NumberList):
+    """A list of up to ``max_len`` numbers in ``interval``; empty is allowed (no rows)."""
+
+    def parse(self, value: Any, where: ws.Where) -> tuple[float, ...]:
+        return () if value == [] else super().parse(value, where)
+
+
+@dataclass(frozen=True)
 class World(wc.WorldBase):
     """A validated planar world."""
 
@@ -143,7 +167,7 @@ class World(wc.WorldBase):
     vehicle: VehicleSpec
     sensor: RangeBearingSpec
     noise: ControlNoise
-    filters: FilterSpec
+    filters: PlanarFilterSpec
 
 
 def filters_section(modes: tuple[str, ...], into: type, *, gate_accept: float,
@@ -214,8 +238,10 @@ WORLD = wc.world(KIND, World, {
         required=False,
         into=ControlNoise,
     ),
-    "filters": filters_section(MODES, FilterSpec, gate_accept=4.0, gate_new=25.0,
-                               names=PLANAR_FILTERS),
+    "filters": filters_section(MODES, PlanarFilterSpec, gate_accept=4.0, gate_new=25.0,
+                               names=PLANAR_FILTERS, online=ws.Boolean(default=False),
+                               fixed_lags_s=Lags(ws.Interval(0.0, MAX_LAG_S), max_len=20,
+                                                 default=[])),
 }, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema
 
@@ -340,6 +366,49 @@ def check_local_mode(fil: dict[str, Any], at: ws.Where,
         raise at.error(rule, fil["mode"])
 
 
+def check_lags(lags: tuple[float, ...], at: ws.Where) -> None:
+    """Fixed lags name distinct rows (``fls-<lag>s``): no two may print alike."""
+    names = [f"{lag:g}" for lag in lags]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise at.item(i).error(f"repeats lag {n} s", lags[i])
+
+
+ONLINE = "isam2"
+"""Name of the online-optimum row (:mod:`slam.kinds.planar.online`)."""
+
+
+def fixed_lag_name(lag_s: float) -> str:
+    """The row name of a fixed-lag smoother: ``fls-2s``, ``fls-0.5s``."""
+    return f"fls-{lag_s:g}s"
+
+
+def online_rows(fs: Any) -> list[str]:
+    """The online rows a ``[filters]`` section asks for (``isam2``, ``fls-<lag>s``; none for
+    a kind without them)."""
+    lags = [fixed_lag_name(lag) for lag in getattr(fs, "fixed_lags_s", ())]
+    return ([ONLINE] if getattr(fs, "online", False) else []) + lags
+
+
+def with_online(w: Any, online: bool, fixed_lags: tuple[float, ...]) -> Any:
+    """``--online`` / ``--fixed-lag S``: world ``w`` with those rows added; ``ValueError``
+    (the one-line message) for a kind without online rows or a lag outside [0, 1e6] s."""
+    if not online and not fixed_lags:
+        return w
+    if not hasattr(w.filters, "online"):
+        opt = "--online" if online else "--fixed-lag"
+        raise ValueError(f"{opt}: world {w.name} (kind {w.kind}) has no online rows "
+                         "(planar-slam worlds only)")
+    lags = list(w.filters.fixed_lags_s)
+    for lag in fixed_lags:
+        if not (math.isfinite(lag) and 0.0 <= lag <= MAX_LAG_S):
+            raise ValueError(f"--fixed-lag {lag:g}: must be in [0, 1e6] seconds")
+        if f"{lag:g}" not in {f"{x:g}" for x in lags}:
+            lags.append(float(lag))
+    return replace(w, filters=replace(w.filters, online=w.filters.online or online,
+                                      fixed_lags_s=tuple(lags)))
+
+
 def _steps(length: float, speed: float, dt: float) -> float:
     """Control steps to drive ``length`` metres (``inf`` when it overflows)."""
     try:
@@ -387,6 +456,7 @@ def parse(data: dict[str, Any], name: str, source: str, base: Traversable | None
     points = _map_points(m, base, root.child("map"))
     start = start_pose(veh, m["bounds_m"], points["waypoints"], root.child("vehicle"))
     check_local_mode(v["filters"], root.child("filters.mode"))
+    check_lags(v["filters"]["fixed_lags_s"], root.child("filters.fixed_lags_s"))
     wc.check_settings(v["filters"], v["filters"]["names"], root.child("filters"))
     ws.check_rules((GATES,), v, root)
     sigma = (veh["initial_sigma_xy_m"], veh["initial_sigma_xy_m"],
