@@ -15,7 +15,8 @@ name         filter                                                     settings
 ``iekf``     iterated EKF (Gauss-Newton update, step control)           ``iterations tolerance``
 ``isrckf``   SRCKF with the iterated posterior-linearisation update     ``iterations tolerance``
 ``isrukf``   SRUKF with the iterated posterior-linearisation update     as ``srukf`` and ``isrckf``
-===========  =========================================================  ===================
+===========  =========================================================  ==========================
+
 Robust filters (:data:`ROBUST_FILTER_NAMES`; they do *not* reduce to the Kalman filter
 on a linear model for finite ``gamma``, so they are kept out of :data:`FILTER_NAMES`):
 
