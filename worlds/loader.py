@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import worlds.limits as limits
-from worlds.schema import WorldError
+from worlds.schema import WorldError, did_you_mean
 
 _LINE = re.compile(r"at line (\d+)")
 _STRING_OR_COMMENT = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:[^"\\\n]|\\.)*"|'
@@ -115,8 +115,9 @@ def _locate(name_or_path: str | os.PathLike[str]) -> tuple[str, str, Traversable
         return path.stem, text, path
     candidate = _package() / f"{text}.toml"
     if not candidate.is_file():
-        known = ", ".join(bundled_names())
-        raise WorldError(text, None, f"no bundled world of that name (bundled: {known})")
+        names = bundled_names()
+        raise WorldError(text, None, f"no bundled world of that name{did_you_mean(text, names)}"
+                         f" (bundled: {', '.join(names)})")
     return text, f"worlds/{text}.toml", candidate
 
 
