@@ -39,25 +39,26 @@ def expected_epochs(w, campaign: dict[str, Any]) -> int:
 
 
 @contextmanager
-def progress_bar(w, campaign: dict[str, Any], by_epochs: bool = True
-                 ) -> Iterator[tuple[Any, Any, Any]]:
+def progress_bar(w, campaign: dict[str, Any], by_epochs: bool = True, file: Any = None,
+                 disable: bool | None = None) -> Iterator[tuple[Any, Any, Any]]:
     """The campaign's progress bar with a total and an ETA: over the filter epochs (they
     move within a run) with the finished runs beside them, or - on a Dask cluster, whose
     workers report no epochs - over the runs.  Yields ``(bar, runs_done, epochs)``: the
-    callbacks :func:`slam.campaign.run_campaign` takes."""
+    callbacks :func:`slam.campaign.run_campaign` takes.  ``file`` (default stderr) and
+    ``disable`` (default: when ``file`` is not a terminal) as for ``tqdm``."""
     from tqdm import tqdm
 
     runs = campaign["runs"]
     done = [0]
     if not by_epochs:
-        with tqdm(total=runs, desc=f"{w.name}: runs", unit="run", file=sys.stderr,
-                  disable=None) as bar:
+        with tqdm(total=runs, desc=f"{w.name}: runs", unit="run", file=file or sys.stderr,
+                  disable=disable) as bar:
             yield bar, bar.update, lambda n: None
         return
     fmt = ("{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} epochs "
            "[{elapsed}<{remaining}{postfix}]")
     with tqdm(total=expected_epochs(w, campaign), desc=f"{w.name}", unit="epoch",
-              file=sys.stderr, disable=None, bar_format=fmt) as bar:
+              file=file or sys.stderr, disable=disable, bar_format=fmt) as bar:
         def show() -> None:
             bar.set_postfix_str(f"runs {done[0]}/{runs}", refresh=False)
             bar.refresh()
