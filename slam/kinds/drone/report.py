@@ -48,6 +48,7 @@ from slam.render.tables import (
     band_note,
     consistency_columns,
     consistency_rule,
+    epoch_time,
     error_range,
     num,
     terminal_text,
@@ -82,7 +83,7 @@ COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                  *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",
                                                            "verdict")),
                  Column("ANEES\npose", value("anees_pose6", ".2f")),
-                 Column("time/epoch\n(ms)", value("time_per_step_s", ".2f", 1e3)),
+                 epoch_time("time_per_step_s", ".2f"),
                  DIVERGED_SHORT))
 """The terminal table: fits 100 columns (ranges, roll / pitch and the pose verdict are in
 the report)."""

@@ -37,6 +37,7 @@ from slam.render.tables import (
     band_note,
     consistency_columns,
     consistency_rule,
+    epoch_time,
     slam_table,
     terminal_text,
     value,
@@ -53,7 +54,7 @@ COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                  Column("heading\nRMSE (deg)", value("heading_rmse_deg", ".2f")),
                  Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
                  *consistency_columns(band=False, headers=("ANEES", "in\nband", "verdict")),
-                 NIS, Column("time/epoch\n(µs)", value("time_per_step_s", ".1f", 1e6)),
+                 NIS, epoch_time("time_per_step_s"),
                  DIVERGED_SHORT))
 """The terminal table: fits 100 columns (the x / y ranges are in the report)."""
 
