@@ -12,6 +12,7 @@ sys.path.insert(0, str(HERE.parent))
 
 project = "navfilters"
 author = "navfilters contributors"
+copyright = "navfilters contributors"
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
@@ -32,4 +33,6 @@ autodoc_typehints = "none"
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 html_theme = "alabaster"
+# wide enough for the world-file reference's six columns
+html_theme_options = {"page_width": "1240px", "sidebar_width": "230px"}
 html_title = "navfilters"
