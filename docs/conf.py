@@ -34,5 +34,5 @@ napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 html_theme = "alabaster"
 # wide enough for the world-file reference's six columns
-html_theme_options = {"page_width": "1240px", "sidebar_width": "230px"}
+html_theme_options = {"page_width": "1240px", "sidebar_width": "230px", "body_max_width": "none"}
 html_title = "navfilters"
