@@ -3,19 +3,20 @@
 ===========  =========================================================  ==========================
 name         filter                                                     settings
 ===========  =========================================================  ==========================
-``ekf``      extended Kalman filter (Joseph form)                       -
-``ckf``      cubature Kalman filter, dense covariance                   -
+``ekf``      extended Kalman filter (Joseph form)                       none
+``ckf``      cubature Kalman filter, dense covariance                   none
 ``ukf``      unscented Kalman filter, dense covariance                  ``alpha beta kappa``
 ``cdkf``     central-difference Kalman filter, dense covariance         ``h``
-``srckf``    square-root cubature Kalman filter (QR / ``tria``)         -
+``srckf``    square-root cubature Kalman filter (QR / ``tria``)         none
 ``srukf``    square-root unscented Kalman filter (QR + downdate)        ``alpha beta kappa``
 ``srcdkf``   square-root central-difference Kalman filter               ``h``
-``svdckf``   cubature Kalman filter with an SVD-factored covariance     -
+``svdckf``   cubature Kalman filter with an SVD-factored covariance     none
 ``hommukf``  high-order moment-matching UKF ([Ding 2017]), dense        moments skewness kurtosis
 ``iekf``     iterated EKF (Gauss-Newton update, step control)           ``iterations tolerance``
 ``isrckf``   SRCKF with the iterated posterior-linearisation update     ``iterations tolerance``
 ``isrukf``   SRUKF with the iterated posterior-linearisation update     as ``srukf`` and ``isrckf``
-===========  =========================================================  ===================
+===========  =========================================================  ==========================
+
 Robust filters (:data:`ROBUST_FILTER_NAMES`; they do *not* reduce to the Kalman filter
 on a linear model for finite ``gamma``, so they are kept out of :data:`FILTER_NAMES`):
 

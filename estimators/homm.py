@@ -238,6 +238,7 @@ class PredictedMoments:
 
     skewness, kurtosis : what the next draws match (:math:`s = \sqrt N\phi_1`,
         :math:`k = N\phi_2`); the stated values when the estimate was refused.
+
     estimate : the estimate :math:`(s, k)` itself (NaN when it could not be formed).
     fallback : ``None``, or why the estimate was refused this prediction.
     fallbacks, predictions : refused estimates and predictions so far in the recursion.

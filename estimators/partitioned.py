@@ -52,6 +52,7 @@ Statistical linearisation (all three steps)
 
 Prediction (block :math:`a = [v; w]`, :math:`w` the control noise, :math:`S_a =
 \mathrm{blkdiag}(S_v, S_w)`, :math:`G = [G_v, G_w]`)
+
     The new vehicle is :math:`v' = \bar y \boxplus (A_v (v \boxminus \hat v) + e)` with
     :math:`e` independent of the map, so :math:`P_{v'v'} = C_yC_y^\top (+ s_0 c_0c_0^\top)
     (+Q)` and :math:`P_{v'm} = A_v P_{vm}`, :math:`P_{mm}` unchanged.  In factor form the
@@ -79,6 +80,7 @@ Prediction (block :math:`a = [v; w]`, :math:`w` the control noise, :math:`S_a =
 
 Update (block :math:`s` = vehicle and observed landmarks, tangent rows :math:`r`,
 ambient columns :math:`c`)
+
     The block factor comes from a thin QR of the block's rows of the joint factor,
     :math:`S_{r,:}^\top = \Omega S_s^\top` (:math:`\Omega^\top\Omega = I`), so
     :math:`P_{x,s} = S\,\Omega S_s^\top`.  With the block's points about :math:`x_c`,
@@ -99,6 +101,7 @@ ambient columns :math:`c`)
 
 Augmentation (block :math:`a = [v; w]`, :math:`w` the observation noise, new landmarks
 :math:`l = g(v, z + w)`)
+
     :math:`P_{l,x} = A_v P_{v,x} = G_v S_{:,1:n_v}^\top`, hence the appended rows of the
     factor are
 

@@ -95,7 +95,7 @@ def density_matrix(value: float | ArrayLike, name: str = "density") -> Array:
 
 
 def ordered_product(E: Array) -> Array:
-    r"""``E[..., 0, :] ⊗ E[..., 1, :] ⊗ ... ⊗ E[..., n-1, :]`` by pairwise (tree) reduction.
+    r"""``E[..., 0, :] ⊗ E[..., 1, :] ⊗ ⋯ ⊗ E[..., n-1, :]`` by pairwise (tree) reduction.
 
     The ``n`` quaternions are padded with identities to a power of two, then multiplied
     in adjacent pairs, :math:`\lceil \log_2 n \rceil` batched products in all.

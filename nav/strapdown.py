@@ -221,7 +221,7 @@ def _right_matrix(e: Array) -> Array:
 
 def prefix_products(E: Array, q0: Array | None = None) -> Array:
     r"""Ordered prefix products along axis ``-2``:
-    ``out[..., k, :] = q0 ⊗ E[..., 0, :] ⊗ ... ⊗ E[..., k-1, :]``, ``k = 0..n``
+    ``out[..., k, :] = q0 ⊗ E[..., 0, :] ⊗ ⋯ ⊗ E[..., k-1, :]``, ``k = 0..n``
     (``q0`` defaults to the identity), shape (..., n + 1, 4).
 
     Long series (``n > 64``) use a Hillis-Steele scan (:math:`\lceil\log_2 n\rceil`

@@ -158,6 +158,15 @@ def batch_chunks(runs: int, batch: int | None = None) -> list[range]:
     return [range(i, min(i + size, runs)) for i in range(0, runs, size)]
 
 
+def pool_size(world, runs: int, workers: int, executor: str = "batched",
+              batch: int | None = None) -> int:
+    """The local processes a campaign uses: ``workers``, but no more than it has tasks
+    (runs, or chunks of runs on the batched path)."""
+    batched = executor == "batched" and KINDS[world.kind].run_batch is not None
+    tasks = len(batch_chunks(runs, batch)) if batched else runs
+    return max(1, min(workers, tasks))
+
+
 def dask_mapper(address: str):
     """A ``mapper`` for :func:`run_campaign` over a Dask distributed scheduler.
 
@@ -248,6 +257,7 @@ def run_campaign(world, *, filters: Sequence[str] | None = None, runs: int | Non
         fn, tasks = run_task, campaign_tasks(world, filters, runs, seed, keep_all)
     outcomes: list[RunOutcome] = []
     pool = None
+    workers = min(workers, len(tasks))
     counter = multiprocessing.Value("q", 0) if epochs is not None and mapper is None else None
     if mapper is not None:
         it = mapper(fn, tasks)

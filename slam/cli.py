@@ -152,12 +152,10 @@ def main() -> None:
 def worlds_cmd() -> None:
     """List the bundled worlds."""
     from slam.registry import list_worlds
+    from slam.terminal import world_lines
 
-    rows = list_worlds()
-    width = max(len(n) for n, _, _ in rows)
-    kwidth = max(len(k) for _, k, _ in rows)
-    for name, kind, desc in rows:
-        click.echo(f"{name:<{width}}  {kind:<{kwidth}}  {desc}")
+    for line in world_lines(list_worlds()):
+        click.echo(line)
 
 
 def _parse_filters(value: str | None, default: Sequence[str],
@@ -165,10 +163,13 @@ def _parse_filters(value: str | None, default: Sequence[str],
     """``--filters`` as a list of names, each one of the kind's ``allowed`` filters."""
     if value is None:
         return list(default)
+    from worlds.schema import did_you_mean
+
     names = [v.strip() for v in value.split(",") if v.strip()]
     bad = [n for n in names if n not in allowed]
     if not names or bad:
-        raise InputError(f"--filters: unknown filter {', '.join(bad) or '(none)'}; "
+        hint = did_you_mean(bad[0], allowed) if bad else ""
+        raise InputError(f"--filters: unknown filter {', '.join(bad) or '(none)'}{hint}; "
                          f"allowed: {', '.join(allowed)} (comma-separated)")
     if len(set(names)) != len(names):
         raise InputError(f"--filters {value}: names a filter twice")
@@ -393,6 +394,10 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         staging = prepare_output(out, campaign)
     except OutputError as exc:
         raise InputError(f"--out {exc}") from None
+    if scheduler is None:
+        from slam.campaign import pool_size
+
+        workers = pool_size(w, campaign["runs"], workers, campaign.get("executor", "batched"))
     try:
         result, elapsed = _campaign(w, campaign, workers, scheduler)
         result.summary["per_run"] = _per_run(w, result, campaign)
@@ -408,7 +413,8 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         raise
     click.echo(kind.report.text_table(result.summary))
     n, mode = campaign["runs"], campaign["mode"]
-    executor = f"dask scheduler {scheduler}" if scheduler else f"{workers} local worker(s)"
+    executor = (f"dask scheduler {scheduler}" if scheduler else
+                f"{workers} local worker{'s' if workers != 1 else ''}")
     in_mode = f" ({mode} mode)" if mode else ""
     click.echo(f"\n{n} run{'s' if n != 1 else ''} x {len(campaign['filters'])} filters + "
                f"baselines{in_mode} in {elapsed:.1f} s on {executor}; results in {out}/")
@@ -452,9 +458,9 @@ def describe_campaign(c: dict[str, Any]) -> str:
 
 def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
     """Run the campaign with a progress bar; -> (result, wall seconds)."""
-    from tqdm import tqdm
 
     from slam.campaign import dask_mapper, run_campaign
+    from slam.terminal import progress_bar
 
     mapper = client = None
     if scheduler:
@@ -464,16 +470,12 @@ def _campaign(w, campaign: dict[str, Any], workers: int, scheduler: str | None):
             raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
     t0 = time.perf_counter()
     try:
-        with tqdm(total=campaign["runs"], desc=f"{w.name}: runs", unit="run",
-                  file=sys.stderr, disable=None) as bar:
-            def epochs(n: int) -> None:
-                bar.set_postfix_str(f"{n:,} filter epochs")
-
+        with progress_bar(w, campaign, by_epochs=mapper is None) as (bar, runs_done, epochs):
             result = run_campaign(w, filters=campaign["filters"], runs=campaign["runs"],
                                   seed=campaign["seed"], workers=workers, mapper=mapper,
                                   executor=campaign.get("executor", "batched"),
                                   keep_all=campaign.get("tum") == "all",
-                                  progress=bar.update, epochs=None if bar.disable else epochs)
+                                  progress=runs_done, epochs=None if bar.disable else epochs)
     finally:
         if client is not None:
             client.close()

@@ -87,8 +87,10 @@ class RunScores(SlamRunScores):
 
     err : (E, 3) at the filter epochs: estimate minus truth ``[ex, ey, eφ]`` (m, m, rad; φ wrapped).
     sigma : (E, 3) the estimator's own standard deviations (NaN where none).
+
     nees : (E,) vehicle-pose NEES (3 dof), NaN where the covariance is singular
         or absent.
+
     lm_err : (L,) final landmark position errors (m).
     """
 

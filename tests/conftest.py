@@ -11,7 +11,10 @@ repository root on ``sys.path`` for that, so no ``pythonpath`` setting is needed
 """
 
 import gc
+import logging
 import os
+
+import pytest
 
 # one BLAS thread per test process keeps timings and rounding reproducible
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -24,3 +27,14 @@ def pytest_collection_finish(session) -> None:
     create (about half of their 5 s over the suite)."""
     gc.collect()
     gc.freeze()
+
+
+@pytest.fixture(autouse=True)
+def _no_library_log_warnings(caplog):
+    """A matplotlib warning sent through ``logging`` (not ``warnings``, which the
+    ``filterwarnings`` setting already makes an error) fails the test: the terminal shows
+    no library warnings ("Ignoring fixed y limits ..." once reached it)."""
+    yield
+    logged = [f"{r.name}: {r.getMessage()}" for r in caplog.get_records("call")
+              if r.name.startswith("matplotlib") and r.levelno >= logging.WARNING]
+    assert not logged, f"library warnings logged: {logged}"

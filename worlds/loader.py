@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import worlds.limits as limits
-from worlds.schema import WorldError
+from worlds.schema import WorldError, did_you_mean
 
 _LINE = re.compile(r"at line (\d+)")
 _STRING_OR_COMMENT = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:[^"\\\n]|\\.)*"|'
@@ -150,8 +150,9 @@ def _locate(name_or_path: str | os.PathLike[str]) -> tuple[str, str, Traversable
         plugin = plugin_worlds().get(text)
         if plugin is not None:
             return text, f"{text}.toml (plug-in)", plugin
-        known = ", ".join(world_names())
-        raise WorldError(text, None, f"no bundled world of that name (bundled: {known})")
+        names = world_names()
+        raise WorldError(text, None, f"no bundled world of that name{did_you_mean(text, names)}"
+                         f" (bundled: {', '.join(names)})")
     return text, f"worlds/{text}.toml", candidate
 
 

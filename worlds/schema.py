@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import difflib
 import json
 import math
 from abc import ABC, abstractmethod
@@ -54,6 +55,13 @@ def format_value(value: Any, limit: int = 60, depth: int = 0) -> str:
     else:
         text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def did_you_mean(word: str, choices: Sequence[str]) -> str:
+    """``" (did you mean 'x'?)"`` for the choices closest to ``word`` by
+    :func:`difflib.get_close_matches` (cutoff 0.6, at most three), else ``""``."""
+    close = difflib.get_close_matches(word, list(choices), n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
 
 
 def format_key(key: str) -> str:
@@ -496,7 +504,8 @@ def read_table(data: Any, schema: Mapping[str, Field | Section], where: Where) -
     for key in data:
         if key not in schema:
             allowed = ", ".join(schema) or "none"
-            raise where.child(key).error(f"unknown key (allowed: {allowed})")
+            hint = did_you_mean(key, list(schema)) if isinstance(key, str) else ""
+            raise where.child(key).error(f"unknown key{hint} (allowed: {allowed})")
     out: dict[str, Any] = {}
     for key, spec in schema.items():
         at = where.child(key)

@@ -80,6 +80,7 @@ def provenance(*, argv: Sequence[str] | None = None, source: str | None = None,
 
     argv : the command line (default ``sys.argv``, program name shortened to its base
         name); source : the world file (or log) read; seed, runs : the campaign's;
+
     workers / scheduler : the local pool's size or the Dask scheduler's address;
     started : when the campaign started (default: now minus ``wall_time_s``),
     wall_time_s : how long it took.

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from slam.results import REFERENCE
+
 MISSING = "—"
 PAPER_AXES = ("x", "y", "z")
 TERMINAL_WIDTH = 100
@@ -189,8 +191,29 @@ POS_RMSE = Column("pos RMSE (m)", value("pos_rmse_m", ".3f"))
 LANDMARK_RMSE = Column("landmark RMSE (m)", value("landmark_rmse_m", ".3f"))
 NIS = Column("NIS/dof", value("nis_mean", ".2f"))
 DIVERGED = Column("diverged runs", lambda name, entry: diverged_cell(entry))
-DIVERGED_SHORT = Column("diverged\nruns", DIVERGED.cell)
-"""The diverged runs under a two-line header (terminal tables)."""
+
+EPOCH_TIME = "ms/epoch"
+RUN_TIME = "s/run"
+TERMINAL_HEADERS: dict[str, str] = {
+    "estimator": "estimator", "ANEES": "ANEES", "epochs in band": "in band",
+    "verdict": "verdict", "filter time per epoch": EPOCH_TIME,
+    "estimator time per run": RUN_TIME, "diverged runs": "diverged",
+}
+"""One header per quantity in every kind's terminal table (quantity -> header; a test
+holds each kind to it): a filter's wall time per epoch (one prediction over the sensor
+period plus its update, a kind's "cycle") in ms, an estimator's per run in s, the
+diverged runs as ``"d/n"``, the share of epochs in the ANEES band as ``"78 %"``."""
+
+DIVERGED_SHORT = Column(TERMINAL_HEADERS["diverged runs"], DIVERGED.cell)
+"""The diverged runs under the terminal tables' header."""
+
+
+def epoch_time(key: str, fmt: str = ".3f") -> Column:
+    """A filter's wall time per epoch (summary key ``key``, seconds) in ms, under the
+    terminal header :data:`EPOCH_TIME`; none for the smoother, a batch solve whose cost
+    is per run (:func:`smoother_cost`)."""
+    cell = value(key, fmt, 1e3)
+    return Column(EPOCH_TIME, lambda n, e: MISSING if n == REFERENCE else cell(n, e))
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,9 @@ from slam.kinds.attitude.run import AXES
 from slam.render.decision import decision_sections, decision_text, ordering_section
 from slam.render.document import KindReport, Link, Section
 from slam.render.tables import (
+    EPOCH_TIME,
     MISSING,
+    TERMINAL_HEADERS,
     anees_cell,
     band_note,
     consistency_keys,
@@ -173,7 +175,7 @@ def _paper_statement(summary: dict[str, Any]) -> str | None:
 
 COMPACT_HEADER = ("estimator", "mean |err| (″)\nroll/pitch/yaw", "ss mean (″)\nroll/pitch/yaw",
                   "bias RMSE\n(deg/h)", "ANEES", "in\nband", "verdict",
-                  "time/cycle\n(ms)", "diverged\nruns")
+                  EPOCH_TIME, TERMINAL_HEADERS["diverged runs"])
 
 
 def text_table(summary: dict[str, Any]) -> str:

@@ -1,7 +1,7 @@
 """The ``attitude`` world: satellite attitude from a strapdown gyro and a star sensor.
 
-[Wang SRCKF-SLAM] §5.1-5.2 (SCENARIOS.md S3).  Units are spelled in every key and converted to SI
-radians on load; the dataclasses name their SI units.  File layout::
+[Wang SRCKF-SLAM] §5.1-5.2 (docs/kinds/star-sensor.md).  Units are spelled in every key
+and converted to SI radians on load; the dataclasses name their SI units.  File layout::
 
     kind = "attitude"
     description = "one line"

@@ -15,7 +15,7 @@ from slam.results import REFERENCE, CampaignResult
 
 HEADER = ("estimator", "rank", "att RMS (deg)", "after 10 s (deg)", "final (deg)",
           "bias RMS (deg/s)",
-          "vs smoother after 10 s (deg)", "ANEES [95 % band]", "verdict", "NIS/dof [band]",
+          "vs smoother after 10 s (deg)", "ANEES [95 % band]", "verdict", "NIS/dof [95 % interval]",
           "CPU (s)", "diverged")
 
 

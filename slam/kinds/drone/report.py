@@ -37,6 +37,7 @@ from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section, paper_ranges_section
 from slam.render.tables import (
     DIVERGED,
+    DIVERGED_SHORT,
     ESTIMATOR,
     LANDMARK_RMSE,
     MISSING,
@@ -47,6 +48,7 @@ from slam.render.tables import (
     band_note,
     consistency_columns,
     consistency_rule,
+    epoch_time,
     error_range,
     landmark_anees_rule,
     num,
@@ -106,7 +108,7 @@ def compact_table(summary: dict[str, Any]) -> Table:
                   *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",
                                                             "verdict")),
                   Column("map\nverdict", MAP_CONSISTENCY[2].cell),
-                  Column("ms/\nepoch", _epoch_time), Column("div.\nruns", DIVERGED.cell)))
+                  epoch_time("time_per_step_s", ".2f"), DIVERGED_SHORT))
 
 
 def smoother_cost(summary: dict[str, Any]) -> str:

@@ -1,4 +1,4 @@
-"""The ``drone-slam`` world: a quaternion SINS/SLAM drone over terrain (SCENARIOS.md S2).
+"""The ``drone-slam`` world: a quaternion SINS/SLAM drone over terrain (docs/kinds/drone.md).
 
 A multirotor flies a waypoint loop at a constant height above the ground among point
 landmarks that sit on the ground; a strapdown IMU (gyro + accelerometer, each with a

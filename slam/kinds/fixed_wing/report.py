@@ -26,7 +26,10 @@ from slam.render.decision import (
 from slam.render.document import KindReport, Section
 from slam.render.tables import (
     DIVERGED,
+    EPOCH_TIME,
     MISSING,
+    RUN_TIME,
+    TERMINAL_HEADERS,
     Column,
     Table,
     band_note,
@@ -263,7 +266,8 @@ def text_table(s: dict[str, Any]) -> str:
     rows = [[r[0], r[1], r[2], r[3], r[4], r[5].split(" [")[0], r[6], r[7],
              MISSING if r[0] == REFERENCE else r[9], r[10], r[11]] for r in RESULTS.rows(s)]
     res = plain_table(["estimator", "roll°", "pitch°", "head°", "pos m", "ANEES",
-                       "in band", "verdict", "ms/cyc", "s/run", "div"], rows)
+                       "in band", "verdict", EPOCH_TIME, RUN_TIME,
+                       TERMINAL_HEADERS["diverged runs"]], rows)
     notes = [paper_verdict(s), turn_verdict(s), *failure_notes(s), covariance_note(s)]
     order = [[r[0], o["metric"], *r[2:5], r[6]]
              for r, o in zip(ordering_rows(s), s.get("paper_ordering") or [])]

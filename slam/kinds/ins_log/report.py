@@ -23,7 +23,7 @@ def _has_truth(summary: dict[str, Any]) -> bool:
 def columns(summary: dict[str, Any]) -> tuple[str, ...]:
     truth = ("truth\nRMSE (m)", "truth\nNEES/3") if _has_truth(summary) else ()
     return ("estimator", "held-out\nRMSE (m)", "held-out\nhoriz (m)", "held-out\nerr²/σ²",
-            "NIS/dof", "NIS windows\nin band", *_outage_head(summary), *truth, "CPU\n(s)",
+            "NIS/dof", "NIS windows\nin 95 %", *_outage_head(summary), *truth, "CPU\n(s)",
             "diverged")
 
 
@@ -96,7 +96,7 @@ HOW_TO_READ = (
     "the GNSS fixes withheld from all of them (the estimator's prediction there against the "
     "fix, which carries its own noise), `err²/σ²` its mean normalised square "
     "e'(P + R)^-1 e / 3 (1 when the estimator's covariance and the fix σ describe the "
-    "error), `NIS/dof` the filters' mean normalised innovation and `NIS windows in band` how "
+    "error), `NIS/dof` the filters' mean normalised innovation and `NIS windows in 95 %` how "
     "many windows of 50 updates have their mean inside the 95 % band. `drift` is the error "
     "at the last fix of each GNSS outage. `gtsam-online` is iSAM2's estimate right after "
     "each fix (a filter's information), `gtsam` its smoothed estimate (all the fixes used). "

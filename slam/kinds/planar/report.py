@@ -37,6 +37,7 @@ from slam.render.tables import (
     band_note,
     consistency_columns,
     consistency_rule,
+    epoch_time,
     landmark_anees_rule,
     num,
     slam_table,
@@ -68,8 +69,8 @@ COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                  *consistency_columns(band=False, headers=("ANEES", "in\nband", "verdict")),
                  Column("map\nverdict", MAP_CONSISTENCY[2].cell),
                  Column("NIS/\ndof", NIS.cell),
-                 Column("µs/\nepoch", _epoch_time),
-                 Column("div.\nruns", DIVERGED_SHORT.cell)))
+                 epoch_time("time_per_step_s"),
+                 DIVERGED_SHORT))
 """The terminal table: fits 100 columns (the x / y ranges and the landmark ANEES are in
 the report; heading is the RMSE, map verdict the landmark NEES's)."""
 

@@ -86,7 +86,7 @@ def plot_trajectories(result: CampaignResult, path) -> None:
                 color=REFERENCE_COLOUR, ms=6, label="smoother's landmarks")
     ax.plot([], [], "+", color="0.3", label="filters' landmarks")
     _frame(ax, [tracks[n] for n in tracks if n != ODOMETRY])
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")  # the frame is fixed: the box gives way
     ax.set_xlabel("x (m, frame of the first pose)")
     ax.set_ylabel("y (m)")
     ax.grid(True, lw=0.3, alpha=0.5)

@@ -22,6 +22,7 @@ from slam.render.document import KindReport, Link, Section
 from slam.render.output import write_tum
 from slam.render.tables import (
     MISSING,
+    RUN_TIME,
     estimator_entries,
     failure_notes,
     num,
@@ -30,8 +31,9 @@ from slam.render.tables import (
 )
 from slam.results import REFERENCE, CampaignResult
 
-LOG_COLUMNS = ("estimator", "rank\npos", "lm dist\nmed (m)", "lm dist\nmax (m)", "aligned\nmed (m)",
-               "map rot.\n(deg)", "final\npose (m)", "pose\nRMSE (m)", "time\n(s)",
+LOG_COLUMNS = ("estimator", "rank\npos", "lm dist\nmed (m)", "lm dist\nmax (m)",
+               "aligned\nmed (m)", "map rot.\n(deg)", "final\npose (m)", "pose\nRMSE (m)",
+               RUN_TIME,
                "iSAM2 /\nfilter", "diverged")
 
 

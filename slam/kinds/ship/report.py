@@ -87,7 +87,7 @@ def result_rows(summary: dict[str, Any]) -> list[list[str]]:
     return [[name, _treatment(name, e), *_axes(e.get("att_rms_arcmin")),
              tables.num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"), _converge(e),
              _converge(e, "converge_yaw_s"), _final_yaw(e), tables.anees_cell(e),
-             tables.num(e.get("anees_inside_95"), ".0%"), _verdict_word(e),
+             tables.percent(e.get("anees_inside_95")), _verdict_word(e),
              tables.anees_cell(e, "anees_att", "anees_att_bounds_95"),
              tables.num(e.get("nis_mean_steady"), ".2f"), _cycle_ms(name, e), _run_s(name, e),
              tables.diverged_cell(e)]
@@ -120,7 +120,7 @@ def effect_rows(summary: dict[str, Any]) -> list[list[str]]:
                      MEASUREMENTS.get(t, "?"), *_axes(e.get("att_rms_arcmin")),
                      tables.num((e.get("att_rms_steady_arcmin") or {}).get("yaw"), ".2f"),
                      _final_yaw(e), tables.anees_cell(e),
-                     tables.num(e.get("anees_inside_95"), ".0%"),
+                     tables.percent(e.get("anees_inside_95")),
                      tables.diverged_cell(e)])
     return rows
 
@@ -168,7 +168,7 @@ def ordering_rows(summary: dict[str, Any]) -> list[list[str]]:
         paper = str(order.index(name) + 1) if name in order else "-"
         rows.append([name, paper, *_rank_cells(summary, METRIC_KEYS[0], name),
                      *_rank_cells(summary, METRIC_KEYS[1], name), tables.anees_cell(e),
-                     tables.num(e.get("anees_inside_95"), ".0%"), _verdict_word(e)])
+                     tables.percent(e.get("anees_inside_95")), _verdict_word(e)])
     return rows
 
 
@@ -374,7 +374,7 @@ def text_table(summary: dict[str, Any]) -> str:
     res = [[*r[:1], *r[2:6], r[9].split(" [")[0], *r[10:12], *r[14:17]]
            for r in result_rows(summary)]
     head = ["estimator", "roll′", "pitch′", "yaw′", "yaw ss′", "ANEES", "in band", "verdict",
-            "ms/cycle", "s/run", "diverged"]
+            tables.EPOCH_TIME, tables.RUN_TIME, tables.TERMINAL_HEADERS["diverged runs"]]
     eff = [[r[0], r[1], r[3], r[4], r[7], r[8], r[10].split(" [")[0]]
            for r in effect_rows(summary)]
     parts = [tables.plain_table(head, res)]

@@ -389,7 +389,7 @@ def text_table(s: dict[str, Any]) -> str:
     """The results table as aligned plain text that fits the terminal (the ANEES band
     and the full row names in the notes below it), then the failure reasons."""
     header = ["estimator", "pitch", "yaw", "roll", "blind", "ANEES", "in band",
-              "verdict", "H∞ fb", "ms/cycle", "diverged"]
+              "verdict", "H∞ fb", tables.EPOCH_TIME, tables.TERMINAL_HEADERS["diverged runs"]]
     rows = [[r[i] for i in (0, 2, 4, 5, 6, 7, 8, 9, 11, 12, 13)] for r in result_rows(s)]
     for row in rows:
         row[0] = row[0].replace(" (true pitch, yaw)", "*").replace(" smoother", "")

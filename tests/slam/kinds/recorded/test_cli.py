@@ -53,3 +53,21 @@ def test_cli_runs_a_log_and_writes_strict_summary(tmp_path):
          "gtsam.tum", "odometry.tum"])
     assert (out / "srckf.tum").read_text().startswith("# small.txt: srckf; time column = pose")
     assert Path(path).exists()
+
+
+def test_cli_log_figures_print_no_library_warnings(tmp_path, caplog):
+    """The trajectories figure fixes its frame and its aspect together: matplotlib logs
+    nothing ("Ignoring fixed y limits ..." once reached the terminal)."""
+    log = synthetic_log(np.random.default_rng(2), n_poses=30, n_landmarks=4)
+    path = tmp_path / "small.txt"
+    path.write_text(format_odometry_log(log))
+    out = tmp_path / "out"
+    with caplog.at_level("INFO"):
+        res = CliRunner().invoke(main, ["run", "--log", str(path), "--out", str(out),
+                                        "--filters", "ekf"])
+    assert res.exit_code == 0, res.output
+    assert (out / "trajectories.png").exists()
+    logged = [r.getMessage() for r in caplog.records
+              if r.name.startswith("matplotlib") and r.levelname in ("WARNING", "ERROR")]
+    assert logged == []
+    assert "Ignoring" not in res.output

@@ -1,0 +1,32 @@
+"""One-line meanings of the ``ship`` world keys (the world-file reference,
+:mod:`worlds.reference`; shared keys in :data:`worlds.reference.COMMON`)."""
+
+DESCRIPTIONS: dict[str, str] = {
+    "duration_s": "length of each run",
+    "site.height_m": "height of the ship's site (it floats there, at rest)",
+    "waves.heading_deg": "mean heading (yaw from East, counter-clockwise)",
+    "waves.roll_amplitude_deg": "roll sway amplitude",
+    "waves.roll_period_s": "roll sway period",
+    "waves.pitch_amplitude_deg": "pitch sway amplitude",
+    "waves.pitch_period_s": "pitch sway period",
+    "waves.yaw_amplitude_deg": "yaw sway amplitude",
+    "waves.yaw_period_s": "yaw sway period",
+    "waves.random_phases": "draw each sway's phase per run (false: all start at 0)",
+    "gyro.rate_hz": "fibre-optic gyro sample rate",
+    "gyro.arw_deg_sqrt_h": "gyro angle random walk (truth and filters)",
+    "gyro.bias_rw_deg_h_sqrt_h": "gyro bias random walk (truth and filters)",
+    "gyro.bias_deg_h": "constant gyro bias [x, y, z]",
+    "vectors.rate_hz": "rate of the gravity and magnetometer observations",
+    "vectors.gravity_sigma_mg": "σ of the observed gravity direction",
+    "vectors.field_declination_deg": "magnetic field declination",
+    "vectors.field_inclination_deg": "magnetic field inclination",
+    "vectors.magnetometer_sigma_percent": "magnetometer σ as a share of the field",
+    "filters.paper_model": "filters run on the paper's pseudo-observation model (the others "
+                           "on the vector measurement)",
+    "filters.variants": '"filter:treatment" extra runs for the effects table',
+    "filters.initial_error_deg": "initial attitude error [roll, pitch, yaw]",
+    "filters.initial_attitude_sigma_deg": "prior attitude σ per axis",
+    "filters.initial_bias_sigma_deg_h": "prior gyro-bias σ",
+    "scoring.converge_arcmin": "roll/pitch bound of the time-to-converge score",
+    "scoring.steady_state_from_s": "steady-state scores are over the epochs from this time on",
+}
