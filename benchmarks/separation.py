@@ -1,8 +1,10 @@
-r"""Paired separation of the filters on a drone world, from the runs' own errors.
+r"""Paired separation of the filters on a drone or planar world, from the runs' own errors.
 
-The drone kind's ``summary.json`` has no ranking block yet; this runs a campaign and ranks
-the filters with :mod:`slam.ranking` on per-run mean squared errors, as the kinds that have
-one do.  Per run ``r`` and estimator ``i``:
+The drone kind's ``summary.json`` has no ranking block yet, and no kind of [Wang
+SRCKF-SLAM]'s SLAM tests the paper's ordering SRCKF < SRUKF < SRCDKF; this runs a campaign
+and ranks the filters with :mod:`slam.ranking` on per-run mean squared errors, as the kinds
+with a ranking do, and tests each pair of that ordering (:func:`slam.ranking.ordering`).
+Per run ``r`` and estimator ``i`` (drone):
 
 .. math::
 
@@ -10,7 +12,8 @@ one do.  Per run ``r`` and estimator ``i``:
     m^{yaw}_{i,r} = \tfrac1E \textstyle\sum_e (\hat\psi_e - \psi_e)^2,\qquad
     m^{lm}_{i,r} = \tfrac1L \textstyle\sum_l \lVert \hat m_l - m_l \rVert^2
 
-(all sensor epochs; the final map), and :func:`slam.ranking.rank` gives each filter's
+(all sensor epochs; the final map; planar: 2-D position and the final map, as
+``slam/kinds/planar/run.py`` ranks them), and :func:`slam.ranking.rank` gives each filter's
 paired :math:`\Delta\overline{m} \pm` s.e. against the best, with the GTSAM smoother as
 the reference.  The position ANEES (with its 95 % band and the share of epochs in band)
 is the campaign summary's.
@@ -56,30 +59,47 @@ def drone_metrics(result: CampaignResult, names: Sequence[str]) -> list[Metric]:
     ]
 
 
+def planar_metrics(result: CampaignResult, names: Sequence[str]) -> list[Metric]:
+    """Position (2-D) and final-landmark per-run MSEs of ``names``, as the planar kind's."""
+    out = result.outcomes
+    return [
+        Metric("position", "position", "m", {n: per_run(
+            out, n, lambda s: float(per_run_mse(s.err[None, :, :2])[0])) for n in names}),
+        Metric("landmarks", "landmarks (final)", "m", {n: per_run(
+            out, n, lambda s: float(np.mean(s.lm_err**2)) if s.lm_err.size else np.nan)
+            for n in names}),
+    ]
+
+
+METRICS = {"drone-slam": drone_metrics, "planar-slam": planar_metrics}
+
+
 def _anees(entry: dict[str, Any]) -> dict[str, Any]:
     keys = ("anees", "anees_bounds_95", "anees_steps_inside_95", "diverged_runs")
     return {k: entry.get(k) for k in keys}
 
 
-def separation(world_name: str, *, runs: int | None, filters: Sequence[str] | None,
-               workers: int, seed: int | None = None) -> dict[str, Any]:
-    """Run the campaign and return the rankings, ANEES and wall time as a JSON-able dict."""
-    world = load_world(world_name)
-    if world.kind != "drone-slam":
-        raise SystemExit(f"error: {world_name}: kind {world.kind!r}; this script ranks the "
-                         "drone-slam kind (the other kinds' summary.json has a ranking)")
+def separation(world: Any, *, runs: int | None = None, filters: Sequence[str] | None = None,
+               workers: int = 1, seed: int | None = None) -> dict[str, Any]:
+    """Run the campaign of ``world`` (a world or a bundled name) and return the rankings,
+    the paper's orderings, ANEES and wall time as a JSON-able dict."""
+    world = load_world(world) if isinstance(world, str) else world
+    if world.kind not in METRICS:
+        raise SystemExit(f"error: {world.name}: kind {world.kind!r}; this script ranks "
+                         f"{' and '.join(METRICS)} worlds")
     t0 = time.perf_counter()
     result = run_campaign(world, filters=filters, runs=runs, seed=seed, workers=workers)
     wall = time.perf_counter() - t0
     names = list(result.summary["filters"])
     ranked = names + ([REFERENCE] if REFERENCE in result.summary.get("reference", {}) else [])
-    metrics = drone_metrics(result, ranked)
+    metrics = METRICS[world.kind](result, ranked)
     blocks = rankings(metrics, names=names, reference=REFERENCE if REFERENCE in ranked else None)
     pairs = [(a, b) for i, a in enumerate(PAPER_ORDER) for b in PAPER_ORDER[i + 1:]
              if a in names and b in names]
     claims = [ordering(m, a, b) for m in metrics for a, b in pairs]
     entries = {**result.summary["filters"], **result.summary.get("reference", {})}
-    return {"world": world.name, "runs": result.summary["runs"], "seed": result.summary["seed"],
+    return {"world": world.name, "kind": world.kind, "runs": result.summary["runs"],
+            "seed": result.summary["seed"],
             "wall_s": wall, "workers": workers, "ranking": blocks, "paper_order": claims,
             "anees": {n: _anees(e) for n, e in entries.items()}}
 
