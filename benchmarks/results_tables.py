@@ -5,7 +5,8 @@ folder or the file) or a JSON written by ``python -m benchmarks.separation WORLD
 PATH`` (the drone kind, whose summary has no ranking).  Per world one table: per filter and
 headline metric the RMSE, the rank and the paired ΔMSE ± s.e. against the best with
 z = ΔMSE / s.e. (``slam.ranking``), then the ANEES with its 95 % band and the share of
-epochs in band; below it the paper's orderings as the campaign tested them.
+epochs in band and the runs it diverged on; below it the paper's orderings as the campaign
+tested them.
 
 Run ``python -m benchmarks.results_tables OUT1 OUT2 ...``; prints Markdown.
 """
@@ -58,13 +59,17 @@ def _anees(entry: Mapping[str, Any], key: str) -> str:
 
 def _orderings(s: Mapping[str, Any]) -> list[str]:
     tests = s.get("paper_ordering") or s.get("paper_order") or []
-    if isinstance(tests, Mapping):
-        tests = [tests]
     out = []
+    if isinstance(tests, Mapping):  # the ship kind: pairs ``a`` before ``b``, per metric
+        for p in tests.get("pairs", []):
+            d = "—" if p.get("mean") is None else f"{p['mean']:+.3g} ± {_g(p.get('se'), '.2g')}"
+            z = "" if p.get("z") is None else f", z {p['z']:.1f}"
+            out.append(f"{p['metric']}: {p['a']} < {p['b']}: Δ {d}{z}, holds: {p['holds']} "
+                       f"({p['runs']} runs)")
+        out += [f"{k}: paper's ordering {' < '.join(tests.get('order', []))} reproduced: {v}"
+                for k, v in (tests.get("reproduced") or {}).items()]
+        return out
     for t in tests:
-        if "better" not in t:
-            out.append("paper ordering: " + json.dumps(t, default=str)[:300])
-            continue
         se = t.get("se")
         mean = t.get("mean")
         d = "—" if mean is None else f"{mean:+.3g} ± {_g(se, '.2g')} {t.get('unit', '')}²"
@@ -81,13 +86,14 @@ def table(s: Mapping[str, Any]) -> str:
     names = list(blocks[0]["order"]) if blocks else list(entries)
     key = CONSISTENCY.get(s.get("kind", ""), "anees")
     head = ["filter"] + [f"{b['label']} RMSE ({b['unit']}) (#rank) ΔMSE ± s.e." for b in blocks]
-    head.append(f"{key.replace('_', ' ')} [95 % band], in band")
+    head += [f"{key.replace('_', ' ')} [95 % band], in band", "diverged runs"]
     lines = [f"**{s['world']}** ({s['runs']} runs, seed {s.get('seed')})", "",
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for n in names:
         e = entries.get(n, {})
-        lines.append("| " + " | ".join([n, *(_cell(b, n) for b in blocks), _anees(e, key)])
-                     + " |")
+        div = e.get("diverged_runs")
+        lines.append("| " + " | ".join([n, *(_cell(b, n) for b in blocks), _anees(e, key),
+                                        "—" if div is None else str(div)]) + " |")
     refs = [b.get("reference") for b in blocks if b.get("reference")]
     if refs:
         lines.append("")

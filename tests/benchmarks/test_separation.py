@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from benchmarks.results_tables import table
 from benchmarks.separation import PAPER_ORDER, separation
 from slam.campaign import run_campaign
 from tests.small_worlds import small_world
@@ -33,6 +34,13 @@ def test_the_planar_ranking_is_the_campaigns() -> None:
             worse = rep["ranking"]["position"]["rows"][c["worse"]]
             assert c["mean"] == pytest.approx(-worse["delta_mse"], rel=1e-12)
     assert set(rep["anees"]) == {*PAPER_ORDER, "gtsam"}
+    for doc in (rep, summary):  # both render: one row per filter, each metric's best in bold
+        md = table(doc).splitlines()
+        rows = [line for line in md if line.startswith("| ") and "RMSE" not in line]
+        assert [r.split(" | ")[0][2:] for r in rows] == summary["ranking"]["position"]["order"]
+        assert sum(r.count("**") for r in rows) == 4 and all(r.count(" | ") == 4 for r in rows)
+    assert sum(line.startswith("- position: srckf < srukf") for line in table(rep).splitlines()
+               ) == 1
 
 
 def test_a_kind_without_metrics_is_refused() -> None:
