@@ -83,7 +83,7 @@ def table(s: Mapping[str, Any]) -> str:
     blocks = [b for b in (s.get("ranking") or {}).values() if isinstance(b, Mapping)
               and "rows" in b]
     entries = {**s.get("filters", {}), **{k: v for k, v in (s.get("anees") or {}).items()}}
-    names = list(blocks[0]["order"]) if blocks else list(entries)
+    names = list(dict.fromkeys(n for b in blocks for n in b["order"])) or list(entries)
     key = CONSISTENCY.get(s.get("kind", ""), "anees")
     head = ["filter"] + [f"{b['label']} RMSE ({b['unit']}) (#rank) ΔMSE ± s.e." for b in blocks]
     head += [f"{key.replace('_', ' ')} [95 % band], in band", "diverged runs"]
