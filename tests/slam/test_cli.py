@@ -129,7 +129,7 @@ def test_interrupted_run_leaves_no_partial_output(tmp_path, monkeypatch):
 def test_worlds_lists_the_bundled_worlds():
     res = CliRunner().invoke(cli.main, ["worlds"])
     assert res.exit_code == 0
-    for name in ("bailey", "webmap", "densemap"):
+    for name in ("bailey", "bailey-sparse", "webmap", "densemap"):
         assert re.search(rf"^{name}\s+planar-slam", res.output, re.M)
 
 

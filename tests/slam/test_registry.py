@@ -12,7 +12,7 @@ from slam.kind import Kind
 from slam.registry import KINDS, get_kind, list_worlds, load_world, log_kind, world_from_dict
 from worlds import WorldError
 
-BUNDLED = ("bailey", "webmap", "densemap")
+BUNDLED = ("bailey", "bailey-sparse", "webmap", "densemap")
 
 
 def test_list_worlds_lists_the_bundled_worlds() -> None:

@@ -103,8 +103,11 @@ def test_a_spinning_flight_bound_follows_the_launch():
 
 
 def test_the_bundled_worlds_are_well_within_the_limits():
-    for name in ("bailey", "densemap", "webmap", "drone", "drone-hills", "star-sensor",
-                 "ship", "alignment", "spinning", "fixed-wing"):
+    for name in ("bailey", "bailey-sparse", "densemap", "webmap", "drone", "drone-hills",
+                 "drone-large-yaw",
+                 "star-sensor", "star-sensor-hard", "ship", "ship-large-error", "alignment",
+                 "alignment-strong-wind", "spinning", "spinning-large-error", "fixed-wing",
+                 "fixed-wing-sparse-gnss"):
         load_world(name)
 
 

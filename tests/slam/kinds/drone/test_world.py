@@ -4,7 +4,9 @@ the key, a mesh-file terrain.
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from importlib.resources import files
 from typing import Any
 
 import numpy as np
@@ -37,6 +39,26 @@ def test_bundled_drone_worlds(name, terrain):
     bailey = load_world("bailey")
     assert np.array_equal(w.map.landmarks, bailey.map.landmarks)
     assert np.array_equal(w.map.waypoints, bailey.map.waypoints)
+
+
+def test_the_large_yaw_world_changes_only_the_initial_attitude_and_adds_invariant_filters():
+    """``drone-large-yaw`` is the paper's drone started from a coarse alignment (roll/pitch
+    σ 2°, yaw σ 10°), with the invariant variants beside the paper's four; its first line
+    says what was made harder."""
+    hard, paper = load_world("drone-large-yaw"), load_world("drone")
+    assert (hard.map, hard.terrain, hard.imu, hard.sensor) == (
+        paper.map, paper.terrain, paper.imu, paper.sensor)
+    assert np.isclose(hard.vehicle.initial_sigma_yaw_rad, np.radians(10.0))
+    assert np.isclose(hard.vehicle.initial_sigma_roll_pitch_rad, np.radians(2.0))
+    assert hard.vehicle == dataclasses.replace(
+        paper.vehicle, initial_sigma_yaw_rad=hard.vehicle.initial_sigma_yaw_rad,
+        initial_sigma_roll_pitch_rad=hard.vehicle.initial_sigma_roll_pitch_rad)
+    assert hard.filters.names == (*paper.filters.names, "ekf-inv", "srckf-inv")
+    assert hard.filters.settings_of("srukf") == paper.filters.settings_of("srukf")
+    assert hard.paper["filters"] == paper.paper["filters"] and hard.runs == 10
+    text = (files("worlds") / "drone-large-yaw.toml").read_text(encoding="utf-8")
+    first = text.splitlines()[0]
+    assert first.startswith("# Harder: ") and "[Wang SRCKF-SLAM]" in first
 
 
 def _set(section: str, **values: Any):

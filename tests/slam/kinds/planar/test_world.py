@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from slam.registry import load_world
 from tests.small_worlds import small_world
 from worlds import WorldError
 
-BUNDLED = ("bailey", "webmap", "densemap")
+BUNDLED = ("bailey", "bailey-sparse", "webmap", "densemap")
 
 
 def signed_area(points: np.ndarray) -> float:
@@ -80,6 +81,23 @@ def test_bailey_world_is_the_papers() -> None:
     # landmarks well separated
     d = np.hypot(*(w.map.landmarks[:, None] - w.map.landmarks[None]).transpose(2, 0, 1))
     assert d[~np.eye(10, dtype=bool)].min() > 15.0
+
+
+def test_the_harder_bailey_world_changes_only_the_sensor_and_steering_noise() -> None:
+    """``bailey-sparse`` is the paper's world with four of Bailey's config values changed
+    (range, scan period, bearing and steering noise) and more runs; its first line says so."""
+    hard, paper = load_world("bailey-sparse"), load_world("bailey")
+    assert hard.map == paper.map and hard.vehicle == paper.vehicle
+    assert hard.filters == paper.filters and hard.paper["filters"] == paper.paper["filters"]
+    s, n = hard.sensor, hard.noise
+    assert (s.max_range_m, s.period_steps, s.sigma_range_m, s.front_half_plane) == (
+        15.0, 40, 0.1, True)
+    assert math.isclose(s.sigma_bearing_rad, math.radians(3.0))
+    assert n.sigma_speed_mps == 0.3 and math.isclose(n.sigma_steer_rad, math.radians(6.0))
+    assert hard.runs == 80
+    text = (files("worlds") / "bailey-sparse.toml").read_text(encoding="utf-8")
+    first = text.splitlines()[0]
+    assert first.startswith("# Harder: ") and "[Wang SRCKF-SLAM]" in first
 
 
 def test_bailey_maps_from_data_files() -> None:
