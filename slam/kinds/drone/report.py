@@ -99,10 +99,10 @@ in band, verdict, NIS."""
 
 
 def compact_table(summary: dict[str, Any]) -> Table:
-    """The terminal table: fits 100 columns (ranges, roll / pitch, the pose verdict and the
-    landmark ANEES are in the report)."""
-    return Table((ESTIMATOR, rank_column(summary, "position", "rank\npos"),
-                  Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
+    """The terminal table: fits 100 columns (ranges, roll / pitch, the pose verdict, the
+    landmark ANEES and the position rank - in the ranking tables below it - are in the
+    report)."""
+    return Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                   Column("yaw RMSE\n(deg)", value("heading_rmse_deg", ".3f")),
                   Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
                   *consistency_columns(band=False, headers=("ANEES\npos", "in\nband",

@@ -26,4 +26,8 @@ DESCRIPTIONS: dict[str, str] = {
     "sensor.front_half_plane": "see only landmarks ahead of the vehicle (|bearing| < 90°)",
     "noise.sigma_speed_mps": "σ of the speed the filters are given",
     "noise.sigma_steer_deg": "σ of the steering angle the filters are given",
+    "filters.online": "also score iSAM2's current pose and marginal after every epoch (row "
+                      "isam2, the online optimum; --online)",
+    "filters.fixed_lags_s": "also score a fixed-lag smoother per lag in seconds (rows "
+                            "fls-<lag>s; --fixed-lag S)",
 }

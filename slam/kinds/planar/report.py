@@ -31,7 +31,6 @@ from slam.render.tables import (
     DIVERGED_SHORT,
     ESTIMATOR,
     MISSING,
-    NIS,
     Column,
     Table,
     band_note,
@@ -68,11 +67,10 @@ COMPACT = Table((ESTIMATOR, Column("pos RMSE\n(m)", value("pos_rmse_m", ".3f")),
                  Column("landmark\nRMSE (m)", value("landmark_rmse_m", ".3f")),
                  *consistency_columns(band=False, headers=("ANEES", "in\nband", "verdict")),
                  Column("map\nverdict", MAP_CONSISTENCY[2].cell),
-                 Column("NIS/\ndof", NIS.cell),
                  epoch_time("time_per_step_s"),
                  DIVERGED_SHORT))
-"""The terminal table: fits 100 columns (the x / y ranges and the landmark ANEES are in
-the report; heading is the RMSE, map verdict the landmark NEES's)."""
+"""The terminal table: fits 100 columns (the x / y ranges, the landmark ANEES and the NIS
+are in the report; heading is the RMSE, map verdict the landmark NEES's)."""
 
 
 def result_rows(summary: dict[str, Any]) -> list[list[str]]:
@@ -89,7 +87,8 @@ def text_table(summary: dict[str, Any]) -> str:
     """The compact terminal table, failure reasons and the ANEES band (≤ 100 columns)."""
     table = terminal_text(COMPACT, summary,
                           [band_note(summary), smoother_cost(summary, SMOOTHER),
-                           "x / y error ranges, the landmark ANEES and figures: report.html"])
+                           "x / y error ranges, the landmark ANEES, the NIS and figures: "
+                           "report.html"])
     return table + "\n\n" + decision_text(summary)
 
 
