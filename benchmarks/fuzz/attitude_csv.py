@@ -23,7 +23,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import ELF_HEADER, Case, binary_junk, registrar, seeded_families
+from .core import Case, binary_variant, registrar, seeded_families
 
 KIND = "recorded-attitude"
 Result = tuple[str, bytes | str]
@@ -163,10 +163,7 @@ def fam_structure(rng: random.Random, lines: list[str]) -> Result:
 @mutator("csv-binary")
 def fam_binary(rng: random.Random, lines: list[str]) -> Result:
     """Binary junk, NUL bytes, invalid UTF-8, UTF-16, a BOM."""
-    text = _join(lines)
-    at = rng.randrange(len(text))
-    name, data = rng.choice([*binary_junk(rng, text, at), ELF_HEADER])
-    return f"{name} (at byte {at})", data
+    return binary_variant(rng, _join(lines))
 
 
 @mutator("csv-huge")

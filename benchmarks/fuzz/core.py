@@ -223,3 +223,11 @@ def binary_junk(rng: random.Random, text: bytes, at: int) -> list[tuple[str, byt
         ("UTF-16 encoded", text.decode().encode("utf-16")),
         ("UTF-8 BOM", b"\xef\xbb\xbf" + text),
     ]
+
+
+def binary_variant(rng: random.Random, text: bytes) -> tuple[str, bytes]:
+    """One of :func:`binary_junk`'s variants of ``text`` at a random byte, or an ELF
+    header: ``("<what> (at byte <n>)", the bytes)``."""
+    at = rng.randrange(len(text))
+    name, data = rng.choice([*binary_junk(rng, text, at), ELF_HEADER])
+    return f"{name} (at byte {at})", data

@@ -16,7 +16,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import ELF_HEADER, Case, binary_junk, registrar, seeded_families
+from .core import Case, binary_variant, registrar, seeded_families
 from .logmutate import _TOKENS
 
 INS_KIND = "ins-log"
@@ -130,11 +130,8 @@ def fam_binary(rng: random.Random, files: Files) -> tuple[str, Files]:
     """Binary junk, NUL bytes, invalid UTF-8, UTF-16, a BOM in one file (sidecar too)."""
     out = dict(files)
     name = rng.choice(list(files))
-    text = str(out[name]).encode("utf-8")
-    at = rng.randrange(len(text))
-    what, data = rng.choice([*binary_junk(rng, text, at), ELF_HEADER])
-    out[name] = data
-    return f"{name}: {what} (at byte {at})", out
+    what, out[name] = binary_variant(rng, str(out[name]).encode("utf-8"))
+    return f"{name}: {what}", out
 
 
 @mutator("ins-time")

@@ -13,7 +13,7 @@ import random
 from collections.abc import Callable
 from pathlib import Path
 
-from .core import ELF_HEADER, LOG_KIND, Case, binary_junk, registrar, seeded_families
+from .core import LOG_KIND, Case, binary_variant, registrar, seeded_families
 
 FIELDS = {
     "ODOMETRY": ("tag", "i", "j", "dx", "dy", "dθ", "cxx", "cxy", "cxθ", "cyy", "cyθ", "cθθ"),
@@ -203,10 +203,7 @@ def fam_structure(rng: random.Random, lines: list[str]) -> Result:
 @mutator("log-binary")
 def fam_binary(rng: random.Random, lines: list[str]) -> Result:
     """Binary junk, NUL bytes, invalid UTF-8, UTF-16, a BOM."""
-    text = _join(lines)
-    at = rng.randrange(len(text))
-    name, data = rng.choice([*binary_junk(rng, text, at), ELF_HEADER])
-    return f"{name} (at byte {at})", data
+    return binary_variant(rng, _join(lines))
 
 
 @mutator("log-huge")
