@@ -17,100 +17,34 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import difflib
-import json
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Self
 
 import numpy as np
 
+from worlds.errors import (  # noqa: F401  (the schema's names for them)
+    NO_VALUE,
+    WorldError,
+    did_you_mean,
+    format_key,
+    format_value,
+)
 from worlds.limits import MIN_VARIANCE
+from worlds.rules import (  # noqa: F401
+    Rule,
+    check_rules,
+    is_whole,
+    value_at,
+    whole_periods,
+    whole_times,
+)
 
-NO_VALUE: Any = object()
 REQUIRED: Any = object()
 AS_KEY: Any = object()
 """The dataclass field a key fills by default: the one named like the key."""
-
-
-def format_value(value: Any, limit: int = 60, depth: int = 0) -> str:
-    """A value as it would be written in TOML, shortened to ``limit`` characters (long
-    strings and collections are cut before they are formatted in full)."""
-    if isinstance(value, np.generic | np.ndarray):  # a numpy value from cross-key code
-        value = value.tolist()
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, str):
-        text = json.dumps(value[: limit + 1], ensure_ascii=False)
-    elif isinstance(value, list | tuple | dict) and depth > 8:
-        text = "[...]" if isinstance(value, list | tuple) else "{...}"
-    elif isinstance(value, list | tuple):
-        text = "[" + ", ".join(format_value(v, limit, depth + 1) for v in value[:limit]) + "]"
-    elif isinstance(value, dict):
-        items = list(value.items())[:limit]
-        text = "{" + ", ".join(f"{k} = {format_value(v, limit, depth + 1)}"
-                               for k, v in items) + "}"
-    else:
-        text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def did_you_mean(word: str, choices: Sequence[str]) -> str:
-    """``" (did you mean 'x'?)"`` for the choices closest to ``word`` by
-    :func:`difflib.get_close_matches` (cutoff 0.6, at most three), else ``""``."""
-    close = difflib.get_close_matches(word, list(choices), n=3, cutoff=0.6)
-    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
-
-
-def format_key(key: str) -> str:
-    """``"vehicle.speed_mps"`` -> ``"[vehicle] speed_mps"``; top-level keys stay bare."""
-    head, _, last = key.rpartition(".")
-    return f"[{head}] {last}" if head else last
-
-
-class WorldError(ValueError):
-    """A world file that cannot be used, with the file, the dotted key and the reason.
-
-    ``str(err)`` reads ``"worlds/bailey.toml: [vehicle] speed_mps = -3.0: must be in (0, 50]"``.
-    ``key`` is ``None`` for faults of the file as a whole (missing file, TOML syntax);
-    ``line`` is the line number of a TOML syntax error, else ``None``.
-    """
-
-    def __init__(
-        self,
-        file: str,
-        key: str | None,
-        message: str,
-        value: Any = NO_VALUE,
-        line: int | None = None,
-    ) -> None:
-        self.file = str(file)
-        self.key = key
-        self.message = message
-        self.value = value
-        self.line = line
-        super().__init__(str(self))
-
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        """Pickle by the constructor's arguments (errors cross the worker pool intact)."""
-        has_value = self.value is not NO_VALUE
-        return (_world_error, (self.file, self.key, self.message, has_value,
-                               self.value if has_value else None, self.line))
-
-    def __str__(self) -> str:
-        where = self.file if self.line is None else f"{self.file}:{self.line}"
-        if self.key is None:
-            return f"{where}: {self.message}"
-        shown = "" if self.value is NO_VALUE else f" = {format_value(self.value)}"
-        return f"{where}: {format_key(self.key)}{shown}: {self.message}"
-
-
-def _world_error(file: str, key: str | None, message: str, has_value: bool, value: Any,
-                 line: int | None) -> WorldError:
-    """Rebuild a pickled :class:`WorldError` (``NO_VALUE`` is not picklable by identity)."""
-    return WorldError(file, key, message, value if has_value else NO_VALUE, line)
 
 
 @dataclass(frozen=True)
@@ -547,49 +481,3 @@ def build(section: Section, values: Mapping[str, Any], **derived: Any) -> Any:
         value = values[key]
         fields[name] = build(spec, value) if isinstance(spec, Section) else value
     return section.into(**fields, **derived)
-
-
-def value_at(values: Mapping[str, Any], key: str) -> Any:
-    """The value at the dotted ``key`` of nested checked tables."""
-    for part in key.split("."):
-        values = values[part]
-    return values
-
-
-def is_whole(x: float, tol: float = 1e-9) -> bool:
-    """``x`` is a finite whole number to a relative ``tol``."""
-    return math.isfinite(x) and abs(x - round(x)) <= tol * max(1.0, abs(x))
-
-
-def whole_periods(duration: float, rate: float) -> bool:
-    """``duration`` is a whole number (>= 1) of periods at ``rate``."""
-    return is_whole(duration * rate) and duration * rate >= 1
-
-
-def whole_times(value: float, other: float) -> bool:
-    """``value`` goes into ``other`` a whole number (>= 1) of times."""
-    ratio = other / value
-    return is_whole(ratio) and round(ratio) >= 1
-
-
-@dataclass(frozen=True)
-class Rule:
-    """A check across keys: ``ok(value at key, value at other)`` must hold, else the
-    error at ``key`` reads ``message`` formatted with ``other`` (the other key's last
-    name) and ``limit`` (its value), or ``message(limit)``."""
-
-    key: str
-    other: str
-    ok: Callable[[Any, Any], bool]
-    message: str | Callable[[Any], str]
-
-
-def check_rules(rules: Sequence[Rule], values: Mapping[str, Any], where: Where) -> None:
-    """Raise the :class:`WorldError` of the first rule that ``values`` break."""
-    for rule in rules:
-        value, limit = value_at(values, rule.key), value_at(values, rule.other)
-        if not rule.ok(value, limit):
-            other = rule.other.rpartition(".")[2]
-            text = (rule.message(limit) if callable(rule.message)
-                    else rule.message.format(other=other, limit=limit))
-            raise where.child(rule.key).error(text, value)
