@@ -98,7 +98,7 @@ def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Se
            consistency: Consistency | None = Consistency(), reference: str | None = REFERENCE,
            settings: Mapping[str, Mapping[str, Any]] | None = None,
            settings_text: Mapping[str, str] | None = None,
-           variants: Mapping[str, str] | None = None) -> dict[str, Any]:
+           variants: Mapping[str, str] | None = None, tuned: Any = None) -> dict[str, Any]:
     """``summary`` with ``ranking`` (metric key -> :func:`slam.ranking.rank` block),
     ``headline`` (the decision in sentences) and, per filter entry, ``settings`` /
     ``settings_text`` (its tuning constants) added; a new dict.
@@ -106,8 +106,14 @@ def decide(summary: Mapping[str, Any], metrics: Sequence[Metric], *, filters: Se
     ``filters`` are ranked (baselines and the reference are not), each metric among the
     filters it has a per-run MSE of (a kind's metric may hold only some of its filters,
     e.g. position for the filters that estimate one); ``variants`` maps a standard filter
-    to its invariant-error variant for the headline's hint.
+    to its invariant-error variant for the headline's hint.  ``tuned`` (a world's filters
+    table: ``settings_of(name)``, ``describe(name)``, e.g.
+    :class:`worlds.common.TunedFilters`) gives ``settings`` and ``settings_text`` of every
+    filter in ``filters``.
     """
+    if tuned is not None:
+        settings = {n: tuned.settings_of(n) for n in filters}
+        settings_text = {n: tuned.describe(n) for n in filters}
     out = dict(summary)
     entries = {k: dict(v) for k, v in (summary.get("filters") or {}).items()}
     for name in filters:

@@ -120,6 +120,17 @@ def test_decide_adds_ranking_headline_and_settings():
     assert "srukf-inv" in out["headline"]
     assert out["filters"]["srukf"]["settings"] == {"alpha": 1.0}
     assert summary["filters"]["srukf"].get("settings") is None  # the input is not changed
+
+    class Tuned:  # a world's filters table gives the same settings
+        def settings_of(self, name: str) -> dict:
+            return {"alpha": 1.0} if name == "srukf" else {}
+
+        def describe(self, name: str) -> str:
+            return "α = 1" if name == "srukf" else ""
+
+    by_table = decide(summary, [metric], filters=["ekf", "srukf"], tuned=Tuned(),
+                      variants={"srukf": "srukf-inv"})
+    assert by_table["filters"] == out["filters"]
     text = decision_text(out)
     assert "rank" in text and "separated" in text and "settings of srukf: α = 1" in text
     assert max(len(line) for line in text.splitlines()) <= 100

@@ -88,5 +88,4 @@ def summarize(world: AlignmentWorld, outcomes: list[RunOutcome], filters: list[s
     if all(n in filters for n in PAPER_ORDER):
         summary["paper_ordering"] = [ordering(ms[0], *PAPER_ORDER)]
     return decide(summary, ms, filters=filters, consistency=LEVEL,
-                  settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters})
+                  tuned=fs)

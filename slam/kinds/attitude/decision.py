@@ -54,5 +54,4 @@ def decide_attitude(world: Any, outcomes: Sequence[RunOutcome], filters: Sequenc
               if a in filters and b in filters]
     fs = world.filters
     return decide({**summary, "paper_ordering": tested}, ms, filters=list(filters),
-                  consistency=CONSISTENCY, settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters})
+                  consistency=CONSISTENCY, tuned=fs)

@@ -104,5 +104,4 @@ def summarize(world: AttitudeLogWorld, outcomes: list[RunOutcome], filters: list
     }
     return decide(summary, metrics(outcomes, [*filters, REFERENCE], t), filters=filters,
                   consistency=Consistency(label="attitude + bias (6-dof)"),
-                  settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters})
+                  tuned=fs)

@@ -204,6 +204,5 @@ def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs:
     fs = world.filters
     return decide(out, headline_metrics(outcomes, [*filters, REFERENCE]), filters=filters,
                   consistency=Consistency(label="position"),
-                  settings={n_: fs.settings_of(n_) for n_ in filters},
-                  settings_text={n_: fs.describe(n_) for n_ in filters},
+                  tuned=fs,
                   variants={b: f"{b}-inv" for b in INVARIANT_BASES})

@@ -67,5 +67,4 @@ def decide_fixed_wing(world: Any, outcomes: list[RunOutcome], filters: list[str]
               if a in filters and b in filters]
     fs = world.filters
     return decide({**summary, "paper_ordering": tested}, ms, filters=filters,
-                  consistency=CONSISTENCY, settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters})
+                  consistency=CONSISTENCY, tuned=fs)

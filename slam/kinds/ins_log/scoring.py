@@ -204,8 +204,7 @@ def summary_of(world: Any, outcome: RunOutcome, filters: list[str], score_from: 
     if cpu:
         out["cpu_over_isam2"] = {n: v["cpu_s"] / cpu for n, v in out["filters"].items()}
     return decide(out, metrics(sc), filters=[n for n in filters if n in sc], consistency=None,
-                  reference=SMOOTHED, settings={n: fl.settings_of(n) for n in filters},
-                  settings_text={n: fl.describe(n) for n in filters})
+                  reference=SMOOTHED, tuned=fl)
 
 
 def _mse(values: dict[str, Any], key: str) -> float:

@@ -194,6 +194,5 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
     ]
     fs = world.filters
     return decide(summary, metrics, filters=filters,
-                  settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters},
+                  tuned=fs,
                   variants={b: f"{b}-inv" for b in INVARIANT_BASES})

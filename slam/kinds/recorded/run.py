@@ -98,7 +98,6 @@ def summarize(world: RecordedWorld, outcomes: list[RunOutcome], filters: list[st
     out["world"] = world.name
     fs = world.filters
     out = decide(out, smoother_metrics(outcomes, filters), filters=filters, consistency=None,
-                 reference=None, settings={n: fs.settings_of(n) for n in filters},
-                 settings_text={n: fs.describe(n) for n in filters})
+                 reference=None, tuned=fs)
     out["headline"] = f"{AGAINST_SMOOTHER} {out['headline']}"
     return out

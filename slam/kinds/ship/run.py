@@ -296,5 +296,4 @@ def summarize(world: ShipWorld, outcomes: list[RunOutcome], filters: list[str], 
     }
     fs = world.filters
     return decide(summary, heads, filters=filters, consistency=CONSISTENCY,
-                  settings={n: fs.settings_of(n) for n in filters},
-                  settings_text={n: fs.describe(n) for n in filters})
+                  tuned=fs)

@@ -237,8 +237,7 @@ def decide_spinning(world: SpinningWorld, outcomes: list[SpinOutcome], filters: 
     metrics = headline_metrics(outcomes, [*filters, REFERENCE], blind)
     out = decide(summary, metrics, filters=filters,
                  consistency=Consistency(label="pitch/yaw"),
-                 settings={n: fs.settings_of(n) for n in filters},
-                 settings_text={n: fs.describe(n) for n in filters})
+                 tuned=fs)
     out["paper_ranking"] = rankings(metrics, [n for n in PAPER_FILTERS if n in filters])
     return out
 
