@@ -110,3 +110,21 @@ def attitude_track(quats: Callable[[RunOutcome, str], Array],
         c = covs(o, name)
         return np.zeros((len(q), 3)), q, None if c is None else np.asarray(c)[:, :3, :3]
     return of
+
+
+def attitude_files(quats: Callable[[RunOutcome, str], Array],
+                   covs: Callable[[RunOutcome, str], Array | None], poses: str
+                   ) -> tuple[Callable[[CampaignResult, Path], list[str]],
+                              Callable[[CampaignResult], list[tuple[str, str]]]]:
+    """An attitude-only kind's ``(extra_files, links)`` for its report: TUM files with
+    zero position (:func:`attitude_track`) and attitude covariance sidecars of every
+    tracked run, ``poses`` saying which poses the files hold."""
+    track = attitude_track(quats, covs)
+
+    def write(result: CampaignResult, out_dir: Path) -> list[str]:
+        return write_all(result, out_dir, list(result.outcomes[0].tracks), track,
+                         f"{ATTITUDE_NOTE}; {poses}", ATTITUDE_COV)
+
+    def link(result: CampaignResult) -> list[tuple[str, str]]:
+        return links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+    return write, link

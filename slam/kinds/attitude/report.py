@@ -9,13 +9,13 @@ compact terminal table.  The figures are in :mod:`slam.kinds.attitude.figures`;
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 from slam.kind import Deferred
 from slam.kinds.attitude.run import AXES
+from slam.render import tum
 from slam.render.decision import decision_sections, decision_text, ordering_section
-from slam.render.document import KindReport, Link, Section
+from slam.render.document import KindReport, Section
 from slam.render.tables import (
     EPOCH_TIME,
     MISSING,
@@ -32,7 +32,7 @@ from slam.render.tables import (
     verdict,
     wrap,
 )
-from slam.results import REFERENCE, CampaignResult
+from slam.results import REFERENCE
 
 _LABELS = {"ekf": "ekf (MEKF)", REFERENCE: "gtsam smoother"}
 
@@ -252,21 +252,10 @@ def _covs(o, name: str):
     return None if name == "truth" else o.tracks[name].cov
 
 
-def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
-    """TUM files (zero position) and attitude covariance sidecars of the tracked runs
-    (:mod:`slam.render.tum`): the poses at the star-sensor epochs."""
-    from slam.render import tum
-
-    names = list(result.outcomes[0].tracks)
-    return tum.write_all(result, out_dir, names, tum.attitude_track(_quats, _covs),
-                         tum.ATTITUDE_NOTE + "; poses at the star-sensor epochs",
-                         tum.ATTITUDE_COV)
-
-
-def tum_links(result: CampaignResult) -> list[Link]:
-    from slam.render import tum
-
-    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+write_tum_files, tum_links = tum.attitude_files(_quats, _covs,
+                                                "poses at the star-sensor epochs")
+"""TUM files (zero position) and attitude covariance sidecars of the tracked runs, and the
+report's entries for them (:func:`slam.render.tum.attitude_files`)."""
 
 
 REPORT = KindReport("star-sensor attitude campaign", attitude_sections,

@@ -5,13 +5,13 @@ against their bands)."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
+from slam.render import tum
 from slam.render.decision import decision_sections, decision_text, rank_column
-from slam.render.document import KindReport, Link, Section
+from slam.render.document import KindReport, Section
 from slam.render.tables import MISSING, anees_cell, interval, num, plain_table
-from slam.results import REFERENCE, CampaignResult
+from slam.results import REFERENCE
 
 HEADER = ("estimator", "rank", "att RMS (deg)", "after 10 s (deg)", "final (deg)",
           "bias RMS (deg/s)",
@@ -98,21 +98,11 @@ def _covs(o, name: str):
     return None if name == "truth" else o.tracks[name].cov
 
 
-def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
-    """TUM files (zero position) and attitude covariance sidecars (:mod:`slam.render.tum`):
-    the poses at the filter epochs (the first row, every row with a reading, the last)."""
-    from slam.render import tum
-
-    names = list(result.outcomes[0].tracks)
-    return tum.write_all(result, out_dir, names, tum.attitude_track(_quats, _covs),
-                         tum.ATTITUDE_NOTE + "; poses at the filter epochs (the first row, "
-                         "every row with a direction reading, the last row)", tum.ATTITUDE_COV)
-
-
-def tum_links(result: CampaignResult) -> list[Link]:
-    from slam.render import tum
-
-    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+write_tum_files, tum_links = tum.attitude_files(
+    _quats, _covs, "poses at the filter epochs (the first row, every row with a direction "
+    "reading, the last row)")
+"""TUM files (zero position) and attitude covariance sidecars of the tracked runs, and the
+report's entries for them (:func:`slam.render.tum.attitude_files`)."""
 
 
 REPORT = KindReport(what="recorded attitude log", sections=sections, figures=figures,

@@ -19,14 +19,13 @@ Figures are in :mod:`slam.kinds.ship.figures`; :data:`REPORT` is the kind's
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 from slam.kind import Deferred
-from slam.render import tables
+from slam.render import tables, tum
 from slam.render.decision import decision_sections, decision_text, delta_text
-from slam.render.document import KindReport, Link, Section
-from slam.results import REFERENCE, CampaignResult
+from slam.render.document import KindReport, Section
+from slam.results import REFERENCE
 
 RULES = {"ekf": "linearised (MEKF)", "ukf": "unscented", "cdkf": "central difference",
          "hommukf": "HoMM", "srckf": "cubature, sqrt", "ckf": "cubature",
@@ -397,21 +396,10 @@ def _covs(o, name: str):
     return None if name == "truth" else o.tracks[name].covs
 
 
-def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
-    """TUM files (zero position) and attitude covariance sidecars of the tracked runs
-    (:mod:`slam.render.tum`): the poses at the filter epochs."""
-    from slam.render import tum
-
-    names = list(result.outcomes[0].tracks)
-    return tum.write_all(result, out_dir, names, tum.attitude_track(_quats, _covs),
-                         tum.ATTITUDE_NOTE + "; poses at the vector-measurement epochs",
-                         tum.ATTITUDE_COV)
-
-
-def tum_links(result: CampaignResult) -> list[Link]:
-    from slam.render import tum
-
-    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+write_tum_files, tum_links = tum.attitude_files(_quats, _covs,
+                                                "poses at the vector-measurement epochs")
+"""TUM files (zero position) and attitude covariance sidecars of the tracked runs, and the
+report's entries for them (:func:`slam.render.tum.attitude_files`)."""
 
 
 REPORT = KindReport("ship SINS attitude campaign ([Ding 2017])", ship_sections,
