@@ -97,6 +97,17 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
+def _numbers(value: list[Any], interval: Interval, scale: float, where: Where
+             ) -> tuple[float, ...]:
+    """The items of a list key, each a number in ``interval``, times ``scale``."""
+    for i, v in enumerate(value):
+        if not _is_number(v):
+            raise where.item(i).error("must be a number", v)
+        if v not in interval:
+            raise where.item(i).error(f"must be in {interval}", v)
+    return tuple(float(v) * scale for v in value)
+
+
 class Field(ABC):
     """One key: a parser from its TOML value, a default (or :data:`REQUIRED`), and the
     dataclass field it fills (``attr``: :data:`AS_KEY`, another name, or ``None`` for a
@@ -245,12 +256,7 @@ class Vector(Field):
     def parse(self, value: Any, where: Where) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != self.length:
             raise where.error(f"must be a list of {self.length} numbers", value)
-        for i, v in enumerate(value):
-            if not _is_number(v):
-                raise where.item(i).error("must be a number", v)
-            if v not in self.interval:
-                raise where.item(i).error(f"must be in {self.interval}", v)
-        return tuple(float(v) * self.scale for v in value)
+        return _numbers(value, self.interval, self.scale, where)
 
 
 class SigmaVector(Vector):
@@ -273,12 +279,7 @@ class NumberList(Field):
     def parse(self, value: Any, where: Where) -> tuple[float, ...]:
         if not isinstance(value, list) or not 0 < len(value) <= self.max_len:
             raise where.error(f"must be a list of 1 to {self.max_len} numbers", value)
-        for i, v in enumerate(value):
-            if not _is_number(v):
-                raise where.item(i).error("must be a number", v)
-            if v not in self.interval:
-                raise where.item(i).error(f"must be in {self.interval}", v)
-        return tuple(float(v) * self.scale for v in value)
+        return _numbers(value, self.interval, self.scale, where)
 
 
 class Points(Field):
