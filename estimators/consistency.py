@@ -34,13 +34,29 @@ def nees_series(err: ArrayLike, cov: ArrayLike) -> Array:
     cov = np.asarray(cov, dtype=float)
     out = np.full(err.shape[0], np.nan)
     ok = np.all(np.isfinite(cov), axis=(1, 2)) & np.all(np.isfinite(err), axis=1)
-    if ok.any():
+    if ok.any() and err.shape[1] == 2:
+        _nees_2d(err, cov, ok, out)
+    elif ok.any():
         w = np.linalg.eigvalsh(cov[ok])
         good = w[:, 0] > w[:, -1] / COND_LIMIT
         idx = np.flatnonzero(ok)[good]
         e = err[idx]
         out[idx] = np.einsum("ki,ki->k", e, np.linalg.solve(cov[idx], e[..., None])[..., 0])
     return out
+
+
+def _nees_2d(err: Array, cov: Array, ok: NDArray[np.bool_], out: Array) -> None:
+    r""":func:`nees_series` for 2-D errors in closed form (no LAPACK call per step):
+    eigenvalues :math:`m \pm \sqrt{d^2 + b^2}` with :math:`m, d = (a \pm c)/2` and
+    :math:`e^\top P^{-1} e = (c e_0^2 - 2 b e_0 e_1 + a e_1^2)/(ac - b^2)` for
+    :math:`P = [[a, b], [b, c]]` (the mean of the two off-diagonal entries)."""
+    e, P = err[ok], cov[ok]
+    a, c, b = P[:, 0, 0], P[:, 1, 1], 0.5 * (P[:, 0, 1] + P[:, 1, 0])
+    m, r = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+    good = m - r > (m + r) / COND_LIMIT
+    det = np.where(good, a * c - b * b, 1.0)
+    val = (c * e[:, 0] ** 2 - 2.0 * b * e[:, 0] * e[:, 1] + a * e[:, 1] ** 2) / det
+    out[np.flatnonzero(ok)[good]] = val[good]
 
 
 def nees(err: ArrayLike, cov: ArrayLike) -> Array:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -197,10 +198,25 @@ class Wrapped(_Flat):
     n: int
     angles: tuple[int, ...]
 
+    @cached_property
+    def _angle_index(self) -> slice | Array | None:
+        """The angle coordinates as one index: a slice when they are evenly spaced (a
+        view), else an index array; ``None`` without angles."""
+        a = self.angles
+        if not a:
+            return None
+        step = a[1] - a[0] if len(a) > 1 else 1
+        if step > 0 and all(b - c == step for b, c in zip(a[1:], a[:-1])):
+            return slice(a[0], a[-1] + 1, step)
+        return np.asarray(a, dtype=np.intp)
+
     def _wrap(self, v: Array) -> Array:
-        out = np.array(v, dtype=float, copy=True)
-        for i in self.angles:
-            out[..., i] = wrap_angle(out[..., i])
+        """``v`` with its angle coordinates wrapped, in place: every caller passes a fresh
+        array (a sum or difference it has just formed)."""
+        out = np.asarray(v, dtype=float)
+        idx = self._angle_index
+        if idx is not None:
+            out[..., idx] = wrap_angle(out[..., idx])
         return out
 
     def retract(self, x: Array, delta: Array) -> Array:

@@ -228,3 +228,16 @@ def test_a_batch_of_noises_one_per_run(name):
         one = filt.predict(b, Transition(lambda X, u: X + u, Noise.from_sigmas(sig[r])), u[r])
         _close(out.mean[r], one.mean, "mean")
         _close(out.cov[r], one.cov, "cov")
+
+
+def test_wrapped_space_wraps_evenly_and_unevenly_spaced_angles_alike():
+    from estimators.spaces import wrap_angle
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-10.0, 10.0, size=(3, 4, 7))
+    for angles in [(1, 3, 5), (0, 2, 3), (6,), ()]:
+        space = Wrapped(7, angles)
+        want = x.copy()
+        for i in angles:
+            want[..., i] = wrap_angle(x[..., i])
+        np.testing.assert_array_equal(space.retract(x, np.zeros(7)), want)
+        np.testing.assert_array_equal(space.local(np.zeros(7), x), want)

@@ -65,3 +65,20 @@ def test_nis_stats_on_chi_square_draws_and_by_hand():
 def test_slam_scoring_uses_the_library_functions():
     for name in ("nees_series", "anees_band", "anees_stats", "per_epoch_anees", "chi2_ppf"):
         assert getattr(slam.scoring, name) is getattr(C, name)
+
+
+def test_two_dimensional_nees_in_closed_form_equals_a_linear_solve():
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(400, 2, 2))
+    P = A @ np.swapaxes(A, 1, 2) + 1e-3 * np.eye(2)
+    e = rng.normal(size=(400, 2))
+    ref = np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0])
+    P[0] = [[1.0, 1.0], [1.0, 1.0]]  # singular
+    P[1] = np.diag([1.0, 1e-13])  # condition above COND_LIMIT
+    P[2] = np.diag([1.0, -1.0])  # indefinite
+    P[3, 0, 0] = np.nan
+    e[4, 1] = np.inf
+    got = C.nees_series(e, P)
+    assert np.all(np.isnan(got[:5]))
+    np.testing.assert_allclose(got[5:], ref[5:], rtol=1e-10)
+    assert C.nees_series(np.ones((1, 2)), np.diag([1.0, 1e-11])[None])[0] == pytest.approx(1e11 + 1)

@@ -80,8 +80,9 @@ def _segment(nees3: NDArray[np.float64], mask: NDArray[np.bool_]) -> dict[str, A
     if epochs.size == 0:
         return {"epochs": 0}
     mean = np.nansum(vals[:, epochs], axis=0) / n[epochs]
-    inside = [lo <= m <= hi for m, (lo, hi) in
-              zip(mean, (anees_band(int(r), 3) for r in n[epochs]))]
+    counts, which = np.unique(n[epochs], return_inverse=True)  # one band per run count
+    lo, hi = np.array([anees_band(int(r), 3) for r in counts]).T[:, which]
+    inside = (lo <= mean) & (mean <= hi)
     return {"anees": float(np.nanmean(vals[:, epochs])), "in_band": float(np.mean(inside)),
             "epochs": int(epochs.size)}
 
