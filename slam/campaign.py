@@ -43,7 +43,7 @@ def pin_threads() -> None:
     threadpool_limits(1)
 
 
-_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def die_with_parent(parent: int) -> None:
@@ -83,7 +83,7 @@ def init_worker(parent: int, counter: Any = None) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):  # blocked while the parent forked us
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
     die_with_parent(parent)
     pin_threads()
     if counter is not None:
@@ -108,7 +108,7 @@ def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple],
     afterwards)."""
     mask = hasattr(signal, "pthread_sigmask") and threading.current_thread() is \
         threading.main_thread()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if mask else None
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS) if mask else None
     try:
         return pool.map(fn or run_task, tasks)
     finally:

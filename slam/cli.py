@@ -394,6 +394,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         staging = prepare_output(out, campaign)
     except OutputError as exc:
         raise InputError(f"--out {exc}") from None
+    draw_workers = workers  # the figures: as many processes as the campaign may use
     if scheduler is None:
         from slam.campaign import pool_size
 
@@ -404,7 +405,7 @@ def _run_and_write(w, kind, campaign: dict[str, Any], workers: int, scheduler: s
         result.summary["provenance"] = provenance(
             source=getattr(w, "source", None), seed=campaign["seed"], runs=campaign["runs"],
             workers=workers, scheduler=scheduler, wall_time_s=elapsed)
-        _render(staging, result, kind.report, plots)
+        _render(staging, result, kind.report, plots, draw_workers)
     except (WorldError, LogFormatError) as exc:  # found during the run: still bad input
         abandon(staging)
         raise InputError(str(exc) if isinstance(exc, WorldError) else f"--log {exc}") from None
@@ -430,8 +431,9 @@ def _per_run(w, result, campaign: dict[str, Any]) -> dict[str, Any]:
     return per_run(w, result.outcomes, campaign["filters"], campaign["seed"])
 
 
-def _render(staging, result, report, plots: bool) -> None:
-    """Write the report folder, with a progress bar over the figures."""
+def _render(staging, result, report, plots: bool, workers: int) -> None:
+    """Write the report folder (the figures by up to ``workers`` processes), with a
+    progress bar over the figures."""
     from tqdm import tqdm
 
     from slam.render.output import commit
@@ -442,7 +444,7 @@ def _render(staging, result, report, plots: bool) -> None:
             bar.n = i
             bar.set_postfix_str(name)
 
-        commit(staging, result, report, plots=plots, progress=progress)
+        commit(staging, result, report, plots=plots, progress=progress, workers=workers)
         bar.n = bar.total or 0
         bar.refresh()
 

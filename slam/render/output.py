@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from slam.render.document import KindReport, report_html, report_markdown
+from slam.render.figure_pool import draw_figures
 from slam.render.tables import summary_json
 from slam.results import CampaignResult
 
@@ -52,18 +53,17 @@ class OutputError(Exception):
 
 
 def render(result: CampaignResult, kr: KindReport, out_dir: Path, *, plots: bool = True,
-           progress: Callable[[str, int, int], None] | None = None) -> list[str]:
-    """Write every output file into the existing folder ``out_dir`` (not atomic);
-    ``progress(name, i, n)`` is called before figure ``i`` of ``n`` is drawn."""
+           progress: Callable[[str, int, int], None] | None = None,
+           workers: int = 1) -> list[str]:
+    """Write every output file into the existing folder ``out_dir`` (not atomic); the
+    figures drawn by up to ``workers`` processes (:mod:`slam.render.figure_pool`),
+    ``progress(name, i, n)`` as they go."""
     (out_dir / SUMMARY).write_text(summary_json(result.summary), encoding="utf-8")
     figures: dict[str, bytes] = {}
     if plots:
         specs = kr.figures()
-        for i, (name, (plot, _)) in enumerate(specs.items()):
-            if progress is not None:
-                progress(name, i, len(specs))
-            plot(result, out_dir / name)
-            figures[name] = (out_dir / name).read_bytes()
+        figures = draw_figures(result, {name: plot for name, (plot, _) in specs.items()},
+                               out_dir, workers, progress)
     (out_dir / "report.md").write_text(report_markdown(result, kr, list(figures)),
                                        encoding="utf-8")
     (out_dir / "report.html").write_text(report_html(result, kr, figures), encoding="utf-8")
@@ -309,12 +309,14 @@ def _swap_into_place(new: Path, out_dir: Path) -> None:
 
 
 def commit(staging: Staging, result: CampaignResult, kr: KindReport, *, plots: bool = True,
-           progress: Callable[[str, int, int], None] | None = None) -> list[Path]:
-    """Render into the staging folder (``progress`` as in :func:`render`) and swap it
-    into place; on any error the staging folder is removed (:func:`abandon`) and an
-    existing output is left as it was."""
+           progress: Callable[[str, int, int], None] | None = None,
+           workers: int = 1) -> list[Path]:
+    """Render into the staging folder (``progress`` and ``workers`` as in :func:`render`)
+    and swap it into place; on any error the staging folder is removed (:func:`abandon`)
+    and an existing output is left as it was."""
     try:
-        names = render(result, kr, staging.tmp, plots=plots, progress=progress)
+        names = render(result, kr, staging.tmp, plots=plots, progress=progress,
+                       workers=workers)
         _write_marker(staging.tmp, staging.campaign, names)
         _swap_into_place(staging.tmp, staging.out_dir)
     except BaseException:

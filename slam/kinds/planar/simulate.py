@@ -26,12 +26,13 @@ offset, control noise, observation noise), so equal seeds give bit-identical log
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
 from estimators import wrap_angle
 from slam.kinds.planar.log import PlanarLog
-from slam.kinds.planar.world import World
+from slam.kinds.planar.world import VehicleSpec, World
 from worlds.schema import WorldError
 
 TWO_PI = 2.0 * math.pi
@@ -40,12 +41,20 @@ TWO_PI = 2.0 * math.pi
 def drive(world: World, start: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """Drive the true vehicle from ``start`` through the waypoint loops.
 
-    Returns ``truth`` ``(K + 1, 3)`` and the true steer angles ``(K,)``.
+    Returns ``truth`` ``(K + 1, 3)`` and the true steer angles ``(K,)`` (fresh arrays; the
+    drive is deterministic, so a campaign whose start is exact drives once per process).
     Raises :class:`WorldError` if a waypoint is never reached (it lies inside the
     vehicle's turning circle, say).
     """
-    veh = world.vehicle
-    wps = world.map.waypoints.tolist()
+    wps = tuple(map(tuple, world.map.waypoints.tolist()))
+    truth, steer = _drive(world.vehicle, wps, tuple(start), world.source or world.name)
+    return truth.copy(), steer.copy()
+
+
+@lru_cache(maxsize=8)
+def _drive(veh: VehicleSpec, wps_t: tuple[tuple[float, float], ...],
+           start: tuple[float, float, float], where: str) -> tuple[np.ndarray, np.ndarray]:
+    wps = [list(w) for w in wps_t]
     n_wp = len(wps)
     vdt = veh.speed_mps * veh.dt_s
     wb = veh.wheelbase_m
@@ -53,7 +62,7 @@ def drive(world: World, start: tuple[float, float, float]) -> tuple[np.ndarray, 
     reach2 = veh.at_waypoint_m**2
 
     # Generous step budget: 4x the polyline length (plus slack) at speed V.
-    legs = np.diff(np.vstack([start[:2], world.map.waypoints]), axis=0)
+    legs = np.diff(np.vstack([start[:2], wps]), axis=0)
     lap = float(np.hypot(*legs[1:].T).sum() + math.dist(wps[-1], wps[0]))
     budget = int(4.0 * (math.dist(start[:2], wps[0]) + veh.loops * lap) / vdt) + 10_000
 
@@ -82,7 +91,7 @@ def drive(world: World, start: tuple[float, float, float]) -> tuple[np.ndarray, 
         phis.append(phi)
         steers.append(g)
     raise WorldError(
-        world.source or world.name,
+        where,
         "map.waypoints",
         f"the vehicle did not reach waypoint {iwp} within {budget} steps "
         "(inside its turning circle?)",
