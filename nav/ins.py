@@ -34,6 +34,7 @@ composed over the blocks (:func:`compose`); :math:`\Phi` is the EKF's Jacobian.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -270,8 +271,22 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
     J[3:6, 3:6] = -N[:, 0:3]
     J[6:9, 0:3] = M[1] + N[:, 9:12]
     J[6:9, 3:6] = -N[:, 3:6]
-    return Preintegrated(dcm_to_q(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
+    return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
                          np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
+
+
+def _quaternion(C: Array) -> Array:
+    r"""``q`` of one rotation matrix: for a rotation under 120° (trace > 0)
+    :math:`w = 	frac12\sqrt{1 + \mathrm{tr}\,C}`, :math:`v = (C_{21} - C_{12}, C_{02} -
+    C_{20}, C_{10} - C_{01})/(4w)` in scalar arithmetic; otherwise
+    :func:`nav.quaternion.dcm_to_q`."""
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = C.tolist()
+    tr = c00 + c11 + c22
+    if tr <= 0.0:
+        return dcm_to_q(C)
+    w = 0.5 * math.sqrt(1.0 + tr)
+    k = 0.25 / w
+    return np.array([w, (c21 - c12) * k, (c02 - c20) * k, (c10 - c01) * k])
 
 
 def _prefix(E: Array) -> Array:
