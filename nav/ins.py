@@ -154,16 +154,15 @@ def compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
 
 def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
     """Per-step ``(Φ_k, Q_k)`` of continuous ``F`` (k, d, d) over ``h`` (k,) (module doc)."""
-    d = F.shape[-1]
     hh = h[:, None, None]
     Fh = F * hh
     Fh2 = Fh @ Fh
     Phis = Fh + 0.5 * Fh2 + Fh2 @ Fh / 6.0
-    Phis[:, np.arange(d), np.arange(d)] += 1.0
+    Phis += np.eye(F.shape[-1])  # 1 on the diagonal, + 0 (exact) elsewhere
     FQ = F * qc
-    Qks = 0.5 * (FQ + np.swapaxes(FQ, -1, -2)) * hh**2 + (FQ @ np.swapaxes(F, -1, -2)) * (
-        hh**3 / 3.0)
-    Qks[:, np.arange(d), np.arange(d)] += qc * h[:, None]
+    FQt = np.swapaxes(FQ, -1, -2)
+    Qks = 0.5 * (FQ + FQt) * hh**2 + (FQ @ np.swapaxes(F, -1, -2)) * (hh**3 / 3.0)
+    Qks += np.diag(qc) * hh
     return Phis, Qks
 
 
