@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -166,19 +167,27 @@ def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
     return Phis, Qks
 
 
+@lru_cache(maxsize=64)
+def _blocks(n: int) -> tuple[Array, Array]:
+    """``(starts, mid)``: the first and the middle sample of each block of at most
+    :data:`SUBSTEP_SAMPLES` of ``n`` samples (read-only)."""
+    starts = np.arange(0, n, SUBSTEP_SAMPLES)
+    mid = np.minimum(starts + SUBSTEP_SAMPLES // 2, (np.append(starts[1:], n) + starts) // 2)
+    starts.flags.writeable = mid.flags.writeable = False
+    return starts, mid
+
+
 def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel,
                      along: Array | None = None) -> tuple[Array, Array]:
     """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc);
     ``along``: the mean's attitudes at every sample when already known, as quaternions
     (n + 1, 4) or matrices (n + 1, 3, 3)."""
-    n = gyro.shape[0]
-    starts = np.arange(0, n, SUBSTEP_SAMPLES)
+    starts, mid = _blocks(gyro.shape[0])
     h = np.add.reduceat(dt, starts)
     w = gyro - x[BG]
     f = accel - x[BA]
-    wm = np.add.reduceat(w * dt[:, None], starts) / h[:, None]
-    fm = np.add.reduceat(f * dt[:, None], starts) / h[:, None]
-    mid = np.minimum(starts + SUBSTEP_SAMPLES // 2, (np.append(starts[1:], n) + starts) // 2)
+    m = np.add.reduceat(np.concatenate([w, f], axis=1) * dt[:, None], starts) / h[:, None]
+    wm, fm = m[:, :3], m[:, 3:]
     if along is None:
         along = attitudes(x[Q], w, dt, model.earth_rate)
     C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
@@ -259,17 +268,16 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
     c = uh * sig + wv * h * h
     T = R[1:] @ (eye - a1 * K + b1 * K2) * hh
     M = _cross_sum(_after(np.concatenate([uh, c], axis=1)), T)  # (2, 3, 3)
-    Fk = skew(f)
-    N = np.concatenate([RG1 * hh, RG1 * (hh * sig[:, :, None]) + RG2 * hh**2,
-                        Rk @ Fk * (0.5 * hh * hh),
-                        Rk @ Fk * (hh * hh * (0.5 * sig[:, :, None] + hh / 6.0))], axis=2)
-    N = N.sum(axis=0)  # (3, 12)
+    n, h2 = len(dt), dt * dt
+    hs = dt * sig[:, 0]
+    G = np.stack([dt, hs]) @ RG1.reshape(n, 9)  # Σ RG1 Δt, Σ RG1 Δt σ
+    F = np.stack([0.5 * h2, h2 * (0.5 * sig[:, 0] + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
     J = np.zeros((9, 6))
     J[0:3, 0:3] = -R[-1].T @ T.sum(axis=0)
-    J[3:6, 0:3] = M[0] + N[:, 6:9]
-    J[3:6, 3:6] = -N[:, 0:3]
-    J[6:9, 0:3] = M[1] + N[:, 9:12]
-    J[6:9, 3:6] = -N[:, 3:6]
+    J[3:6, 0:3] = M[0] + F[0].reshape(3, 3)
+    J[3:6, 3:6] = -G[0].reshape(3, 3)
+    J[6:9, 0:3] = M[1] + F[1].reshape(3, 3)
+    J[6:9, 3:6] = -(G[1] + h2 @ RG2.reshape(n, 9)).reshape(3, 3)
     return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
                          np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
 
