@@ -34,7 +34,9 @@ composed over the blocks (:func:`compose`); :math:`\Phi` is the EKF's Jacobian.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,14 +45,12 @@ from estimators import Euclidean, Noise, Product, Transition
 from estimators.linalg import NotPositiveDefiniteError, chol, tria
 from nav.gnss import InsLayout
 from nav.imu_noise import ImuPsd
-from nav.quaternion import _PRODUCT_TABLE, qexp, skew
+from nav.quaternion import dcm_to_q, qexp, qleft_matrix, qmul, skew
 from nav.spaces import UnitQuaternion
 from nav.strapdown import (
-    _qexp,
     attitudes,
     dcm_unit,
     gamma_coefficients,
-    hamilton,
     mechanise,
 )
 
@@ -77,12 +77,17 @@ class InsModel:
     gravity: Array
     earth_rate: Array | None = None
 
-    def qc(self) -> Array:
-        """Diagonal of :math:`GQ_cG^\\top` on the 15-d error state."""
+    def __post_init__(self) -> None:
         s = self.psd
-        return np.concatenate([np.zeros(3), np.full(3, s.accel_density**2),
-                               np.full(3, s.gyro_density**2), np.full(3, s.gyro_bias.psd()),
-                               np.full(3, s.accel_bias.psd())])
+        qc = np.concatenate([np.zeros(3), np.full(3, s.accel_density**2),
+                             np.full(3, s.gyro_density**2), np.full(3, s.gyro_bias.psd()),
+                             np.full(3, s.accel_bias.psd())])
+        qc.flags.writeable = False
+        object.__setattr__(self, "_qc", qc)
+
+    def qc(self) -> Array:
+        """Diagonal of :math:`GQ_cG^\\top` on the 15-d error state (read-only; built once)."""
+        return self._qc  # type: ignore[attr-defined]
 
 
 def psd_sqrt(C: Array) -> Array:
@@ -150,34 +155,42 @@ def compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
 
 def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
     """Per-step ``(Φ_k, Q_k)`` of continuous ``F`` (k, d, d) over ``h`` (k,) (module doc)."""
-    d = F.shape[-1]
     hh = h[:, None, None]
     Fh = F * hh
     Fh2 = Fh @ Fh
     Phis = Fh + 0.5 * Fh2 + Fh2 @ Fh / 6.0
-    Phis[:, np.arange(d), np.arange(d)] += 1.0
+    Phis += np.eye(F.shape[-1])  # 1 on the diagonal, + 0 (exact) elsewhere
     FQ = F * qc
-    Qks = 0.5 * (FQ + np.swapaxes(FQ, -1, -2)) * hh**2 + (FQ @ np.swapaxes(F, -1, -2)) * (
-        hh**3 / 3.0)
-    Qks[:, np.arange(d), np.arange(d)] += qc * h[:, None]
+    FQt = np.swapaxes(FQ, -1, -2)
+    Qks = 0.5 * (FQ + FQt) * hh**2 + (FQ @ np.swapaxes(F, -1, -2)) * (hh**3 / 3.0)
+    Qks += np.diag(qc) * hh
     return Phis, Qks
+
+
+@lru_cache(maxsize=64)
+def _blocks(n: int) -> tuple[Array, Array]:
+    """``(starts, mid)``: the first and the middle sample of each block of at most
+    :data:`SUBSTEP_SAMPLES` of ``n`` samples (read-only)."""
+    starts = np.arange(0, n, SUBSTEP_SAMPLES)
+    mid = np.minimum(starts + SUBSTEP_SAMPLES // 2, (np.append(starts[1:], n) + starts) // 2)
+    starts.flags.writeable = mid.flags.writeable = False
+    return starts, mid
 
 
 def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel,
                      along: Array | None = None) -> tuple[Array, Array]:
     """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc);
-    ``along``: the mean's attitudes at every sample (n + 1, 4) when already known."""
-    n = gyro.shape[0]
-    starts = np.arange(0, n, SUBSTEP_SAMPLES)
+    ``along``: the mean's attitudes at every sample when already known, as quaternions
+    (n + 1, 4) or matrices (n + 1, 3, 3)."""
+    starts, mid = _blocks(gyro.shape[0])
     h = np.add.reduceat(dt, starts)
     w = gyro - x[BG]
     f = accel - x[BA]
-    wm = np.add.reduceat(w * dt[:, None], starts) / h[:, None]
-    fm = np.add.reduceat(f * dt[:, None], starts) / h[:, None]
-    mid = np.minimum(starts + SUBSTEP_SAMPLES // 2, (np.append(starts[1:], n) + starts) // 2)
+    m = np.add.reduceat(np.concatenate([w, f], axis=1) * dt[:, None], starts) / h[:, None]
+    wm, fm = m[:, :3], m[:, 3:]
     if along is None:
         along = attitudes(x[Q], w, dt, model.earth_rate)
-    C = dcm_unit(along[mid])
+    C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
     qc = model.qc()
     Phis, Qks = step_matrices(error_matrices(C, wm, fm, model), h, qc)
     Phi, Qe = compose(Phis, Qks)
@@ -189,8 +202,8 @@ class Preintegrated:
     r"""Body-frame increments over an epoch from an identity start without gravity at the
     biases ``b`` = ``[b_g, b_a]`` (6,): ``dq`` (4,), ``dv``, ``dp`` (3,), their Jacobians
     ``J`` (9, 6) of ``[δθ, δv, δp]`` (:math:`\Delta q(b + \delta b) = \Delta q\otimes
-    \mathrm{Exp}(J_\theta\delta b)`), the epoch length ``tau`` and the relative attitudes at
-    every sample ``q_samples`` (n + 1, 4)."""
+    \mathrm{Exp}(J_\theta\delta b)`), the epoch length ``tau`` and the relative attitude
+    matrices at every sample ``R_samples`` (n + 1, 3, 3)."""
 
     dq: Array
     dv: Array
@@ -198,28 +211,7 @@ class Preintegrated:
     J: Array
     b: Array
     tau: float
-    q_samples: Array
-
-
-def _qmul_table(p: Array, q: Array) -> Array:
-    """Hamilton products of (n, 4) rows by the product table (one outer product and one
-    matrix product: fewer array operations than :func:`nav.strapdown.hamilton`)."""
-    return (p[:, :, None] * q[:, None, :]).reshape(-1, 16) @ _PRODUCT_TABLE
-
-
-def _scan(E: Array) -> Array:
-    """Prefix products ``[1, E_0, E_0 E_1, ...]`` (n + 1, 4) of one series (log-depth)."""
-    out = E.copy()
-    off = 1
-    while off < len(out):
-        out = np.concatenate([out[:off], _qmul_table(out[:-off], out[off:])])
-        off *= 2
-    return np.concatenate([[[1.0, 0.0, 0.0, 0.0]], out])
-
-
-def _before(A: Array) -> Array:
-    """Sums of the rows before each row: ``[0, A_0, A_0 + A_1, ...]`` without the total."""
-    return np.concatenate([np.zeros((1,) + A.shape[1:]), np.cumsum(A, axis=0)[:-1]])
+    R_samples: Array
 
 
 def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrated:
@@ -242,41 +234,91 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
             + \tfrac16 R_k[f_k\times]\Delta t_k)\Delta t_k^2\big),\quad
         J_{pa} = \sum_k \big(J_{va,<k}\Delta t_k - R_k\Gamma_2\Delta t_k^2\big)
 
-    (:math:`J_{\cdot,<k}`: the sums over the samples before ``k``)."""
+    (:math:`J_{\cdot,<k}`: the sums over the samples before ``k``).
+
+    Evaluated without per-sample matrix sums: the attitudes are prefix products of the
+    matrices :math:`\mathrm{Exp}(\phi_k) = I + (1 - \theta_k^2 b_{1,k})[\phi_k]_\times +
+    a_{1,k}[\phi_k]_\times^2` (log-depth, :func:`_prefix`); with
+    :math:`T_j = R_{j+1}J_r(\phi_j)\Delta t_j` (so :math:`S_k = \sum_{j<k}T_j`) and
+    :math:`\sigma_k = \sum_{j>k}\Delta t_j`, :math:`\sum_k [c_k\times]S_k =
+    \sum_j [\bar c_j\times]T_j` with :math:`\bar c_j = \sum_{k>j}c_k` (one product,
+    :func:`_cross_sum`) and :math:`\sum_k J_{\cdot,<k}\Delta t_k = \sum_k J_{\cdot,k}
+    \sigma_k`, so each Jacobian block is one contraction over the samples;
+    :math:`\Delta p = \sum_k c_k` with :math:`c_k = u_k\Delta t_k\sigma_k + w_k\Delta
+    t_k^2`."""
     w = gyro - b[:3]
     f = accel - b[3:]
     h = dt[:, None]
     hh = dt[:, None, None]
     phi = w * h
-    Q = _scan(_qexp(phi))
-    Q = Q / np.linalg.norm(Q, axis=1, keepdims=True)
-    R = dcm_unit(Q)  # (n + 1, 3, 3)
-    a1, b1, a2, b2 = gamma_coefficients(np.sum(phi * phi, axis=1))
+    t2 = np.sum(phi * phi, axis=1)
+    a1, b1, a2, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
     K = skew(phi)
     K2 = K @ K
     eye = np.eye(3)
-    G1 = eye + a1[:, None, None] * K + b1[:, None, None] * K2
-    G2 = 0.5 * eye + a2[:, None, None] * K + b2[:, None, None] * K2
-    Jr = eye - a1[:, None, None] * K + b1[:, None, None] * K2
-    RG1, RG2 = R[:-1] @ G1, R[:-1] @ G2
+    R = _prefix(eye + (1.0 - t2[:, None, None] * b1) * K + a1 * K2)  # (n + 1, 3, 3)
+    G1 = eye + a1 * K + b1 * K2
+    G2 = 0.5 * eye + a2 * K + b2 * K2
+    Rk = R[:-1]
+    RG1, RG2 = Rk @ G1, Rk @ G2
     u = np.einsum("nij,nj->ni", RG1, f)
     wv = np.einsum("nij,nj->ni", RG2, f)
-    V = np.concatenate([np.zeros((1, 3)), np.cumsum(u * h, axis=0)])
-    dp = np.sum(V[:-1] * h + wv * h * h, axis=0)
-    terms = R[1:] @ Jr * hh
-    S = _before(terms)
-    Fk = skew(f)
-    Jvg_k = (skew(u) @ S + 0.5 * R[:-1] @ Fk * hh) * hh
-    Jva_k = -RG1 * hh
+    sig = _after(dt)[:, None]
+    uh = u * h
+    c = uh * sig + wv * h * h
+    T = R[1:] @ (eye - a1 * K + b1 * K2) * hh
+    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)), T)  # (2, 3, 3)
+    n, h2 = len(dt), dt * dt
+    hs = dt * sig[:, 0]
+    G = np.stack([dt, hs]) @ RG1.reshape(n, 9)  # Σ RG1 Δt, Σ RG1 Δt σ
+    F = np.stack([0.5 * h2, h2 * (0.5 * sig[:, 0] + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
     J = np.zeros((9, 6))
-    J[0:3, 0:3] = -R[-1].T @ terms.sum(axis=0)
-    J[3:6, 0:3] = Jvg_k.sum(axis=0)
-    J[3:6, 3:6] = Jva_k.sum(axis=0)
-    J[6:9, 0:3] = np.sum(_before(Jvg_k) * hh + (skew(wv) @ S + R[:-1] @ Fk * hh / 6.0)
-                         * hh**2, axis=0)
-    J[6:9, 3:6] = np.sum(_before(Jva_k) * hh - RG2 * hh**2, axis=0)
-    return Preintegrated(Q[-1], V[-1], dp, J, np.asarray(b, dtype=float).copy(),
-                         float(dt.sum()), Q)
+    J[0:3, 0:3] = -R[-1].T @ T.sum(axis=0)
+    J[3:6, 0:3] = M[0] + F[0].reshape(3, 3)
+    J[3:6, 3:6] = -G[0].reshape(3, 3)
+    J[6:9, 0:3] = M[1] + F[1].reshape(3, 3)
+    J[6:9, 3:6] = -(G[1] + h2 @ RG2.reshape(n, 9)).reshape(3, 3)
+    return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
+                         np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
+
+
+def _quaternion(C: Array) -> Array:
+    r"""``q`` of one rotation matrix: for a rotation under 120° (trace > 0)
+    :math:`w = 	frac12\sqrt{1 + \mathrm{tr}\,C}`, :math:`v = (C_{21} - C_{12}, C_{02} -
+    C_{20}, C_{10} - C_{01})/(4w)` in scalar arithmetic; otherwise
+    :func:`nav.quaternion.dcm_to_q`."""
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = C.tolist()
+    tr = c00 + c11 + c22
+    if tr <= 0.0:
+        return dcm_to_q(C)
+    w = 0.5 * math.sqrt(1.0 + tr)
+    k = 0.25 / w
+    return np.array([w, (c21 - c12) * k, (c02 - c20) * k, (c10 - c01) * k])
+
+
+def _prefix(E: Array) -> Array:
+    """Prefix products ``[I, E_0, E_0 E_1, ...]`` (n + 1, 3, 3) of (n, 3, 3) matrices
+    (log-depth)."""
+    out = E.copy()
+    off = 1
+    while off < len(out):
+        out[off:] = out[:-off] @ out[off:]
+        off *= 2
+    return np.concatenate([np.eye(3)[None], out])
+
+
+def _after(A: Array) -> Array:
+    """Sums of the rows after each row: ``[A_1 + ... + A_{n-1}, ..., A_{n-1}, 0]``."""
+    return np.cumsum(A[::-1], axis=0)[::-1] - A
+
+
+def _cross_sum(A: Array, T: Array) -> Array:
+    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and ``T``
+    (n, 3, 3) -> (g, 3, 3): :math:`([a\times]T)_{il} = \epsilon_{ikm}a_kT_{ml}`, so the
+    sum is :math:`\epsilon_{ikm}Y_{kml}` of the one product :math:`Y = A^\top T`."""
+    Y = (A.T @ T.reshape(len(T), 9)).reshape(-1, 3, 3, 3)
+    return np.stack([Y[:, 1, 2] - Y[:, 2, 1], Y[:, 2, 0] - Y[:, 0, 2],
+                     Y[:, 0, 1] - Y[:, 1, 0]], axis=1)
 
 
 def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Array:
@@ -289,7 +331,7 @@ def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Ar
     dg, da = _decays(model, pre.tau)
     db = np.concatenate([X[:, BG] * np.sqrt(dg), X[:, BA] * np.sqrt(da)], axis=1) - pre.b
     d = db @ pre.J.T
-    q = hamilton(X[:, Q], hamilton(pre.dq[None], qexp(d[:, :3])))
+    q = qmul(X[:, Q], qexp(d[:, :3]) @ qleft_matrix(pre.dq).T)
     C = dcm_unit(X[:, Q])
     g, tau = model.gravity, pre.tau
     Y = X.copy()
@@ -314,7 +356,7 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
         pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
                                                             x_mean[BA] * np.sqrt(da)]))
         Phi, Qe = error_transition(x_mean, gyro, accel, dt, model,
-                                   hamilton(x_mean[Q][None], pre.q_samples))
+                                   dcm_unit(x_mean[Q]) @ pre.R_samples)
 
         def f(X: Array, u: object) -> Array:
             return propagate_preintegrated(X, pre, model)

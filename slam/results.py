@@ -37,6 +37,19 @@ class Track:
     landmark_cov: Array
 
 
+@dataclass(frozen=True)
+class PoseTrack:
+    """One estimator's poses on one run, kept for its TUM file (:mod:`slam.render.tum`):
+    times (E,) s; p (E, 3) position, or ``None`` for an attitude-only estimator (zero
+    position in the file); q (E, 4) ``q_wxyz``; cov (E, k, k) the pose covariance in the
+    kind's stated tangent, or ``None``; rows with a non-finite pose are left out."""
+
+    times: Array
+    p: Array | None
+    q: Array
+    cov: Array | None
+
+
 @dataclass(frozen=True, kw_only=True)
 class EstimatorRun:
     """What every estimator's result on one run carries besides its errors (the base of

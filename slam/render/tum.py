@@ -3,7 +3,9 @@ r"""TUM trajectory files for every run that kept its tracks, with covariance sid
 ``<name>.tum`` (run 0) and ``<name>.run<r>.tum`` (run r, with ``slam run --tum all``): one
 line ``t x y z qx qy qz qw`` per pose, the time to the microsecond, after ``#`` comment
 lines that name the world, the estimator, the run, the frames and the number of poses and
-their time base.  Attitude-only kinds write zero position (stated in the header).
+their time base.  Attitude-only kinds (and attitude-only estimators of a kind with
+poses, e.g. the fixed-wing EA filters) write zero position (stated in the header); an
+estimator's poses may be at its own epochs (:data:`TimesOf`).
 ``<name>[.run<r>].cov.txt`` beside it: per pose of the TUM file ``t`` then the pose
 covariance row-major (its tangent and units in the header); rows of the TUM file and the
 sidecar correspond one to one (poses without a finite estimate are left out of both).
@@ -17,11 +19,15 @@ from pathlib import Path
 import numpy as np
 
 from slam.render.output import tum_text, write_tum
-from slam.results import Array, CampaignResult, RunOutcome
+from slam.results import Array, CampaignResult, PoseTrack, RunOutcome
 
 TrackOf = Callable[[RunOutcome, str], tuple[Array, Array, Array | None]]
 """``(outcome, name) -> (positions (E, 3), quaternions q_wxyz (E, 4), covariance (E, k, k)
 or None)`` of ``name`` (``"truth"``: the true trajectory) on that run."""
+TimesOf = Callable[[RunOutcome, str], Array]
+"""``(outcome, name) -> (E,)`` the times of ``name``'s poses (default: ``outcome.times``)."""
+Note = str | Callable[[str], str]
+"""A header note, the same for every file or per estimator name."""
 
 
 def suffix(run: int) -> str:
@@ -60,28 +66,35 @@ def cov_text(times: Array, cov: Array, head: str) -> str:
         f"{t:.6f} " + " ".join(f"{v:.9g}" for v in c) + "\n" for t, c in zip(times, flat))
 
 
+def _text(note: Note, name: str) -> str:
+    return note if isinstance(note, str) else note(name)
+
+
 def write_all(result: CampaignResult, out_dir: Path, names: Iterable[str], track: TrackOf,
-              note: str, cov_note: str) -> list[str]:
+              note: Note, cov_note: Note, times: TimesOf | None = None) -> list[str]:
     """Write every tracked run's ``truth`` and estimator TUM files and sidecars; -> the
-    file names."""
+    file names.  ``times`` gives each track's pose times where they are not the run's
+    ``times`` (estimators at different epochs)."""
     texts: list[tuple[str, str]] = []
     sidecars: list[str] = []
     for o in tracked(result):
         for name in ["truth", *[n for n in names if n in o.tracks]]:
             p, q, cov = track(o, name)
-            r, ok = rows(np.asarray(o.times, dtype=float), p, q)
+            t = o.times if times is None else times(o, name)
+            r, ok = rows(np.asarray(t, dtype=float), p, q)
             stem = f"{name}{suffix(o.run)}"
-            texts.append((stem, tum_text(r, header(result, o.run, name, note, len(r)))))
+            texts.append((stem, tum_text(r, header(result, o.run, name, _text(note, name),
+                                                   len(r)))))
             if cov is not None and name != "truth":
                 (out_dir / f"{stem}.cov.txt").write_text(
                     cov_text(r[:, 0], cov[ok], f"{result.summary.get('world', '')}: {name}, "
-                             f"run {o.run}: covariance per pose of {stem}.tum; {cov_note}"),
-                    encoding="utf-8")
+                             f"run {o.run}: covariance per pose of {stem}.tum; "
+                             f"{_text(cov_note, name)}"), encoding="utf-8")
                 sidecars.append(f"{stem}.cov.txt")
     return [*write_tum(out_dir, texts), *sidecars]
 
 
-def links(result: CampaignResult, names: Iterable[str], what: str,
+def links(result: CampaignResult, names: Iterable[str], what: Note,
           cov: bool = True) -> list[tuple[str, str]]:
     """The report's file list entries of :func:`write_all`'s files."""
     out = []
@@ -89,7 +102,7 @@ def links(result: CampaignResult, names: Iterable[str], what: str,
         for name in ["truth", *[n for n in names if n in o.tracks]]:
             stem = f"{name}{suffix(o.run)}"
             who = "true" if name == "truth" else name
-            out.append((f"{stem}.tum", f"run {o.run}'s {who} {what} (TUM)"))
+            out.append((f"{stem}.tum", f"run {o.run}'s {who} {_text(what, name)} (TUM)"))
             if cov and name != "truth":
                 out.append((f"{stem}.cov.txt", f"its covariance per pose ({stem}.tum's rows)"))
     return out
@@ -128,3 +141,19 @@ def attitude_files(quats: Callable[[RunOutcome, str], Array],
     def link(result: CampaignResult) -> list[tuple[str, str]]:
         return links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
     return write, link
+
+
+def pose_track(truth: Callable[[RunOutcome], tuple[Array, Array]]) -> tuple[TrackOf, TimesOf]:
+    """``(track, times)`` of a kind whose tracks are :class:`~slam.results.PoseTrack` values
+    (zero position for one without), ``truth(outcome) -> (p, q_wxyz)`` at ``outcome.times``."""
+    def of(o: RunOutcome, name: str) -> tuple[Array, Array, Array | None]:
+        if name == "truth":
+            p, q = truth(o)
+            return p, q, None
+        tr: PoseTrack = o.tracks[name]  # type: ignore[assignment]
+        p = np.zeros((len(tr.q), 3)) if tr.p is None else tr.p
+        return p, tr.q, tr.cov
+
+    def times(o: RunOutcome, name: str) -> Array:
+        return o.times if name == "truth" else o.tracks[name].times  # type: ignore[attr-defined,return-value]
+    return of, times

@@ -239,3 +239,59 @@ def test_preintegrated_bias_jacobians_match_finite_differences():
     # the Gamma series to their first terms: second order in the interval
     np.testing.assert_allclose(pre.J, num, atol=1e-4 * np.abs(num).max())
     np.testing.assert_allclose(pre.J[:, 3:], num[:, 3:], atol=1e-6)  # linear in b_a
+
+
+def _preintegrate_by_samples(gyro, accel, dt, b):
+    """``preintegrate``'s increments and Jacobians by its docstring's per-sample sums, one
+    sample at a time (quaternion attitudes; the reference of the closed sums)."""
+    from nav.quaternion import qmul, qnormalize, qto_dcm, skew
+    from nav.strapdown import gamma_coefficients
+
+    q, v, p = np.array([1.0, 0, 0, 0]), np.zeros(3), np.zeros(3)
+    S, Jvg, Jva, Jpg, Jpa, T = (np.zeros((3, 3)) for _ in range(6))
+    eye = np.eye(3)
+    for k in range(len(dt)):
+        h = dt[k]
+        phi, f = (gyro[k] - b[:3]) * h, accel[k] - b[3:]
+        a1, b1, a2, b2 = (float(c) for c in gamma_coefficients(phi @ phi))
+        K = skew(phi)
+        G1, G2 = eye + a1 * K + b1 * K @ K, 0.5 * eye + a2 * K + b2 * K @ K
+        Jr = eye - a1 * K + b1 * K @ K
+        R = qto_dcm(q)
+        u, wv = R @ G1 @ f, R @ G2 @ f
+        p = p + v * h + wv * h * h
+        v = v + u * h
+        q = qnormalize(qmul(q, qexp(phi)))
+        Fk = skew(f)
+        jvg = (skew(u) @ S + 0.5 * R @ Fk * h) * h
+        jva = -R @ G1 * h
+        Jpg = Jpg + Jvg * h + (skew(wv) @ S + R @ Fk * h / 6.0) * h * h
+        Jpa = Jpa + Jva * h - R @ G2 * h * h
+        Jvg, Jva = Jvg + jvg, Jva + jva
+        T = qto_dcm(q) @ Jr * h
+        S = S + T
+    J = np.zeros((9, 6))
+    J[0:3, 0:3] = -qto_dcm(q).T @ S
+    J[3:6, 0:3], J[3:6, 3:6], J[6:9, 0:3], J[6:9, 3:6] = Jvg, Jva, Jpg, Jpa
+    return q, v, p, J
+
+
+@pytest.mark.parametrize("spin", [0.3, 6.0])
+def test_preintegration_equals_its_per_sample_sums(spin):
+    from nav.ins import preintegrate
+    from nav.quaternion import qto_dcm
+
+    rng = np.random.default_rng(3)
+    n = 57
+    dt = rng.uniform(0.005, 0.015, n)
+    gyro = rng.normal(0, spin, (n, 3))
+    accel = rng.normal(0, 1.0, (n, 3)) + [0, 0, 9.81]
+    b = np.concatenate([rng.normal(0, 1e-3, 3), rng.normal(0, 0.05, 3)])
+    pre = preintegrate(gyro, accel, dt, b)
+    q, v, p, J = _preintegrate_by_samples(gyro, accel, dt, b)
+    np.testing.assert_allclose(pre.dq * np.sign(pre.dq[0]), q * np.sign(q[0]), atol=1e-14)
+    np.testing.assert_allclose(pre.dv, v, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(pre.dp, p, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(pre.J, J, rtol=1e-11, atol=1e-14 * np.abs(J).max())
+    np.testing.assert_allclose(pre.R_samples[-1], qto_dcm(q), atol=1e-14)
+    np.testing.assert_allclose(pre.R_samples[0], np.eye(3))

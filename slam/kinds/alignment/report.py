@@ -14,6 +14,11 @@ summary dict.
 * Theoretical limits - the level and azimuth limits from the world's sensor numbers;
 * How to read this.
 
+Files: ``truth.tum`` and ``<estimator>.tum`` with ``<estimator>.cov.txt`` of every tracked
+run (run 0; every run with ``slam run --tum all``: :mod:`slam.render.tum`): attitude only
+(zero position), the filters' corrected attitude at every filter epoch, the smoother's at
+its keys.
+
 Figures are in :mod:`slam.kinds.alignment.figures`; :data:`REPORT` is the kind's
 :class:`~slam.render.document.KindReport`.
 """
@@ -22,8 +27,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from slam.kind import Deferred
-from slam.render import tables
+from slam.render import tables, tum
 from slam.render.decision import decision_sections, decision_text, ordering_section
 from slam.render.document import KindReport, Section
 from slam.results import REFERENCE
@@ -323,6 +330,25 @@ def text_table(summary: dict[str, Any]) -> str:
     return "\n".join([*parts, "", decision_text(summary)])
 
 
+TUM_NOTE = (f"{tum.ATTITUDE_NOTE}, ENU, body forward-left-up; the filters' corrected "
+            "attitude at every filter epoch, the smoother's at its keys")
+TUM_COV = ("t, then the 3 x 3 misalignment covariance row-major (rad², navigation-frame "
+           "rotation vector, East-North-Up: q̂ = Exp(φ) ⊗ q)")
+_TRACK, _TIMES = tum.pose_track(lambda o: (np.zeros((len(o.truth), 3)), o.truth))
+
+
+def write_tum_files(result: Any, out_dir: Any) -> list[str]:
+    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
+    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _TRACK, TUM_NOTE,
+                         TUM_COV, _TIMES)
+
+
+def tum_links(result: Any) -> list[tuple[str, str]]:
+    """The report's entries for :func:`write_tum_files`'s files."""
+    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+
+
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,
-                    Deferred("slam.kinds.alignment.figures:figures"), text_table)
+                    Deferred("slam.kinds.alignment.figures:figures"), text_table,
+                    write_tum_files, tum_links)
 """The alignment kind's report."""

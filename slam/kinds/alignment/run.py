@@ -14,6 +14,11 @@ Every run simulates the log once (:mod:`slam.kinds.alignment.simulate`) and runs
   ``[reference] runs`` runs;
 * the γ sweep (:mod:`slam.kinds.alignment.sweep`) on the first ``[sweep] runs`` runs.
 
+A run that keeps its tracks (run 0; every run with ``slam run --tum all``) keeps each
+estimator's corrected attitude :math:`q_{est}` and its misalignment covariance
+(:class:`~slam.results.PoseTrack`, no position) for its TUM file: the filters at every
+epoch, the smoother at its keys.
+
 Scores: the residual misalignment (East, North, azimuth = Up) of the corrected attitude
 against the truth, its σ from the estimator's covariance, the 3-dof misalignment NEES
 the 2-dof NEES of the level axes alone, and the 13-dof NEES of the whole error state
@@ -32,6 +37,7 @@ from numpy.typing import NDArray
 from estimators import Euclidean
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
+from nav.quaternion import qnormalize
 from slam.kinds.alignment.models import (
     N_STATE,
     aqe_transition,
@@ -45,16 +51,17 @@ from slam.kinds.alignment.scoring import AlignScores
 from slam.kinds.alignment.simulate import AlignmentLog, simulate_alignment
 from slam.kinds.alignment.sweep import SweepCell, sweep_run
 from slam.kinds.alignment.world import AlignmentWorld
-from slam.results import REFERENCE, RunOutcome
+from slam.results import REFERENCE, PoseTrack, RunOutcome
 from slam.scoring import nees_series
 
 Array = NDArray[np.float64]
 
 
-def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str, flt: Any = None
-               ) -> AlignScores:
+def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str, flt: Any = None,
+               keep: dict[str, PoseTrack] | None = None) -> AlignScores:
     """Filter ``name`` over the log (module docstring), scored against the truth;
-    ``flt`` replaces the filter the world's settings make (the γ sweep)."""
+    ``flt`` replaces the filter the world's settings make (the γ sweep); ``keep`` receives
+    its attitude track."""
     flt = world.filters.make(name) if flt is None else flt
     x0, P0 = initial_belief(world, log)
     M = log.n_epochs
@@ -76,6 +83,9 @@ def run_filter(world: AlignmentWorld, log: AlignmentLog, name: str, flt: Any = N
     err, cov = misalignment_error(log.sins_q, rec.means[:, :4], rec.covs[:, :4, :4],
                                   log.truth_q)
     nees13 = nees_series(true_state(log) - rec.means, rec.covs)
+    if keep is not None:
+        keep[name] = PoseTrack(np.array(log.times), None,
+                               qnormalize(log.sins_q - rec.means[:, :4]), cov)
     return _scores(name, err, cov, nees13, nis, 3, out.time_s, M - 1, out.failure, world,
                    fallbacks=falls[0], updates=len(out.nis))
 
@@ -99,10 +109,15 @@ def _scores(name: str, err: Array, cov: Array, nees13: Array, nis: Array, nis_do
                        failure=failure)
 
 
-def run_reference(world: AlignmentWorld, log: AlignmentLog) -> AlignScores:
-    """The GTSAM smoother's attitude at its keys (NaN between), scored like a filter."""
+def run_reference(world: AlignmentWorld, log: AlignmentLog,
+                  keep: dict[str, PoseTrack] | None = None) -> AlignScores:
+    """The GTSAM smoother's attitude at its keys (NaN between), scored like a filter;
+    ``keep`` receives its attitude track at the keys."""
     M, every = log.n_epochs, world.epochs_per_key
     series = smooth_alignment(world, log)
+    if keep is not None:
+        keep[REFERENCE] = PoseTrack(np.array(log.times)[::every], None, series.q,
+                                    series.cov_nav)
     err = np.full((M, 3), np.nan)
     cov = np.full((M, 3, 3), np.nan)
     idx = np.arange(0, M, every)
@@ -125,16 +140,18 @@ def run_once(world: AlignmentWorld, run: int, seed_seq: np.random.SeedSequence,
              ) -> RunOutcome:
     """Simulate run ``run`` from its own seed; score every filter and the smoother.
 
-    With ``keep_tracks`` the tracks are the scores themselves (the figures draw run 0
-    from them), ``truth`` the (M, 4) true attitude and ``times`` the filter epochs.
+    With ``keep_tracks`` the tracks are the estimators' attitude tracks
+    (:class:`~slam.results.PoseTrack`), ``truth`` the (M, 4) true attitude and ``times``
+    the filter epochs.
     """
     log = simulate_alignment(world, np.random.default_rng(seed_seq))
-    scores = {n: run_filter(world, log, n) for n in filters}
+    keep: dict[str, PoseTrack] | None = {} if keep_tracks else None
+    scores = {n: run_filter(world, log, n, keep=keep) for n in filters}
     if reference and run < world.reference.runs:
-        scores[REFERENCE] = run_reference(world, log)
+        scores[REFERENCE] = run_reference(world, log, keep)
     cells = (sweep_run(world, log, np.array(log.times), run_filter)
              if run < world.sweep.runs else ())
     if not keep_tracks:
         return AlignOutcome(run, scores, sweep=cells)  # type: ignore[arg-type]
-    return AlignOutcome(run, scores, dict(scores), np.array(log.truth_q),  # type: ignore[arg-type]
+    return AlignOutcome(run, scores, keep, np.array(log.truth_q),  # type: ignore[arg-type]
                         None, np.array(log.times), sweep=cells)

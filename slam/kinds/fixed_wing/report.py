@@ -10,6 +10,11 @@
   steady flight, with the accelerometer gravity rule's own error on the error-free
   readings (the prediction);
 * How to read this.
+
+Files: ``truth.tum`` and ``<estimator>.tum`` with ``<estimator>.cov.txt`` of every tracked
+run (run 0; every run with ``slam run --tum all``: :mod:`slam.render.tum`): the INS
+filters and the smoother as full poses at the INS epochs, the EA filters with zero
+position at the EA epochs.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from __future__ import annotations
 from typing import Any
 
 from slam.kind import Deferred
+from slam.render import tum
 from slam.render.decision import (
     decision_sections,
     decision_text,
@@ -282,6 +288,37 @@ def text_table(s: dict[str, Any]) -> str:
                       decision_text(s)])
 
 
+POSE_NOTE = ("x, y: metres east/north of the start point, z: height (m); q = q_nb (body "
+             "forward-left-up to ENU); poses at the INS epochs")
+EA_NOTE = ("attitude only: the position columns are zero (the EA filters estimate no "
+           "position); q = q_nb (body forward-left-up to ENU) from the filter's Z-Y-X Euler "
+           "angles; poses at the EA epochs, truth.tum's at the INS epochs")
+POSE_COV = ("t, then the 6 x 6 covariance of [position (m, ENU), attitude rotation vector "
+            "(rad, body frame: q = q̂ ⊗ Exp(δθ))] row-major")
+EA_COV = "t, then the 3 x 3 covariance of [roll, pitch, yaw] row-major (rad², Z-Y-X)"
+
+
+def _ea(name: str) -> bool:
+    return name.startswith("ea-")
+
+
+_TRACK, _TIMES = tum.pose_track(lambda o: (o.truth[:, :3], o.truth[:, 3:7]))
+
+
+def write_tum_files(result: Any, out_dir: Any) -> list[str]:
+    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
+    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _TRACK,
+                         lambda n: EA_NOTE if _ea(n) else POSE_NOTE,
+                         lambda n: EA_COV if _ea(n) else POSE_COV, _TIMES)
+
+
+def tum_links(result: Any) -> list[tuple[str, str]]:
+    """The report's entries for :func:`write_tum_files`'s files."""
+    return tum.links(result, list(result.outcomes[0].tracks),
+                     lambda n: "attitude (zero position)" if _ea(n) else "pose")
+
+
 REPORT = KindReport("fixed-wing UAV attitude campaign ([Fixed-wing EA-UKF])", sections,
-                    Deferred("slam.kinds.fixed_wing.figures:figures"), text_table)
+                    Deferred("slam.kinds.fixed_wing.figures:figures"), text_table,
+                    write_tum_files, tum_links)
 """The ``fixed-wing`` kind's report."""

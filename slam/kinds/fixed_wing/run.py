@@ -15,6 +15,12 @@ initial errors from the initial covariances, and runs on it
 * the GTSAM smoother (:mod:`slam.kinds.fixed_wing.reference`) on the IMU and GNSS data,
   with a state at the INS filters' epochs.
 
+A run that keeps its tracks (run 0; every run with ``slam run --tum all``) keeps each
+estimator's poses (:class:`~slam.results.PoseTrack`) for its TUM file: the INS filters and
+the smoother at the INS epochs with position and the 6 × 6 covariance of
+``[δp, δθ]`` (body-frame ``q = q̂ ⊗ Exp(δθ)``), the EA filters at the EA epochs with zero
+position (they estimate none) and the 3 × 3 covariance of their Z-Y-X Euler angles.
+
 Every filter is built from the world's stated settings (``[filters.unscented]`` for the
 UKFs) and runs in the one loop
 (:func:`estimators.loop.run_epochs`); numerical failures are counted divergences.
@@ -30,7 +36,7 @@ from numpy.typing import NDArray
 
 from estimators.loop import BeliefRecorder, run_epochs
 from estimators.models import Belief
-from nav.euler import euler_zyx_errors, q_to_euler_zyx
+from nav.euler import euler_zyx_errors, euler_zyx_to_q, q_to_euler_zyx
 from nav.quaternion import qexp, qmul
 from slam.failures import run_reference
 from slam.kinds.fixed_wing.decision import decide_fixed_wing
@@ -52,7 +58,7 @@ from slam.kinds.fixed_wing.truth_stats import (
     segment_masks,
 )
 from slam.kinds.fixed_wing.world import FixedWingWorld
-from slam.results import REFERENCE, RunOutcome
+from slam.results import REFERENCE, PoseTrack, RunOutcome
 from slam.scoring import nees_series
 
 Array = NDArray[np.float64]
@@ -107,8 +113,18 @@ def ins_noise(world: FixedWingWorld) -> InsNoise:
                     i.accel_drift_rw_mps2_sqrt_s, i.gyro_drift_time_s, i.accel_drift_time_s)
 
 
-def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
-    """EA filter ``name`` (``ea-<filter>``) over the log (module docstring)."""
+def ins_track(times: Array, means: Array, covs: Array) -> PoseTrack:
+    """The poses of an INS-state series (G, 19) with the ``[δp, δθ]`` block of its
+    covariance (G, ≥9, ≥9)."""
+    idx = np.r_[0:3, 6:9]
+    return PoseTrack(times, means[:, 0:3].copy(), means[:, 6:10].copy(),
+                     covs[:, idx[:, None], idx[None, :]])
+
+
+def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array,
+           keep: dict[str, PoseTrack] | None = None) -> FwScores:
+    """EA filter ``name`` (``ea-<filter>``) over the log (module docstring); ``keep``
+    receives its poses (zero position, Euler-angle covariance)."""
     w = log.world
     flt = w.filters.make(name)
     gyro, z = ea_observations(log)
@@ -132,13 +148,18 @@ def run_ea(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
     sig = np.sqrt(np.diagonal(rec.covs[:, :3, :3], axis1=1, axis2=2))
     nees = nees_series(-err, rec.covs[:, :3, :3])
     div, why = final_check(err, out.diverged, out.failure, w.scoring.divergence_rad)
+    if keep is not None:
+        keep[name] = PoseTrack(samples * log.dt, None, euler_zyx_to_q(*rec.means[:, :3].T),
+                               rec.covs[:, :3, :3].copy())
     return FwScores(name, samples * log.dt, err, sig, None, None,
                     *segment_masks(log.world, samples), nees, 3, J - 1, nis=out.nis, nis_dof=3,
                     time_s=out.time_s, diverged=div, failure=why)
 
 
-def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
-    """INS filter ``name`` (``ins-<filter>``) over the log (module docstring)."""
+def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array,
+            keep: dict[str, PoseTrack] | None = None) -> FwScores:
+    """INS filter ``name`` (``ins-<filter>``) over the log (module docstring); ``keep``
+    receives its poses (:func:`ins_track`)."""
     w = log.world
     flt = w.filters.make(name)
     n, G, every = log.n_ins, log.ins_epochs, log.fix_every
@@ -161,6 +182,8 @@ def run_ins(log: FixedWingLog, name: str, x0: Array, P0: Array) -> FwScores:
 
     out = run_epochs(flt, flt.init(x0, INS_SPACE, cov=P0), G, transition=transition,
                      correct=correct, record=rec, correct_first=True)
+    if keep is not None:
+        keep[name] = ins_track(np.arange(G) * n * log.dt, rec.means, rec.covs)
     return nav_scores(log, name, rec.means, rec.covs, out.nis, out.time_s, G - 1,
                       out.diverged, out.failure)
 
@@ -186,10 +209,14 @@ def nav_scores(log: FixedWingLog, name: str, means: Array, covs: Array, nis: Arr
                     failure=why)
 
 
-def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:
+def _reference(log: FixedWingLog, x0: Array, P0: Array,
+               keep: dict[str, PoseTrack] | None = None) -> FwScores:
     from slam.kinds.fixed_wing.reference import smooth
 
     est, failure = run_reference(smooth, log, x0, P0)
+    if est is not None and keep is not None:
+        keep[REFERENCE] = ins_track(np.arange(est[0].shape[0]) * log.n_ins * log.dt,
+                                    est[0], est[1])
     if est is None:
         G = log.ins_epochs
         nan = np.full((G, 19), np.nan)
@@ -203,18 +230,26 @@ def _reference(log: FixedWingLog, x0: Array, P0: Array) -> FwScores:
 def run_once(world: FixedWingWorld, run: int, seed_seq: np.random.SeedSequence,
              filters: Sequence[str], keep_tracks: bool = False, reference: bool = True
              ) -> RunOutcome:
-    """Simulate run ``run`` from its own seed; score every estimator and the smoother."""
+    """Simulate run ``run`` from its own seed; score every estimator and the smoother.
+
+    With ``keep_tracks`` the tracks are each estimator's :class:`~slam.results.PoseTrack`
+    (module docstring) and ``truth`` is (G, 7) ``[p, q_nb]`` at the INS epochs."""
     rng = np.random.default_rng(seed_seq)
     log = simulate(world, rng)
     ea0, ins0 = ea_prior(log, rng), ins_prior(log, rng)
     scores: dict[str, FwScores] = {}
+    keep: dict[str, PoseTrack] | None = {} if keep_tracks else None
     for name in filters:
-        scores[name] = (run_ea(log, name, *ea0) if name.startswith("ea-")
-                        else run_ins(log, name, *ins0))
+        scores[name] = (run_ea(log, name, *ea0, keep=keep) if name.startswith("ea-")
+                        else run_ins(log, name, *ins0, keep=keep))
     if reference:
-        scores[REFERENCE] = _reference(log, *ins0)
-    times = np.arange(log.ins_epochs) * log.n_ins * log.dt
-    return RunOutcome(run, scores, times=times)  # type: ignore[arg-type]
+        scores[REFERENCE] = _reference(log, *ins0, keep=keep)
+    samples = np.arange(log.ins_epochs) * log.n_ins
+    times = samples * log.dt
+    if keep is None:
+        return RunOutcome(run, scores, times=times)  # type: ignore[arg-type]
+    truth = np.hstack([log.traj.p[samples], log.traj.q[samples]])
+    return RunOutcome(run, scores, keep, truth, times=times)  # type: ignore[arg-type]
 
 
 def summarize(world: FixedWingWorld, outcomes: list[RunOutcome], filters: list[str], runs: int,

@@ -27,6 +27,7 @@ from nav.gravity import gravity_vector
 from nav.ins import LAYOUT, SPACE, InsModel, ins_transition
 from nav.quaternion import qto_dcm
 from nav.strapdown import dcm_unit, earth_rate_enu
+from slam.kinds.ins_log import invariant
 from slam.kinds.ins_log.log import InsLog
 from slam.kinds.ins_log.world import SCORE_FROM, InsLogWorld, Scoring
 from slam.results import REFERENCE, RunOutcome
@@ -145,7 +146,9 @@ def measurement_of(log: InsLog, i: int, cache: dict | None = None) -> tuple[Any,
 def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, roles: Array
                ) -> EstimatorTrack:
     """INS filter ``name`` from the alignment fix ``a`` (module docstring); the prior
-    already holds fix ``a`` (its position and σ), so the first update is at the next."""
+    already holds fix ``a`` (its position and σ), so the first update is at the next.
+    An invariant variant (``<filter>-inv``) runs in the group error
+    (:mod:`slam.kinds.ins_log.invariant`)."""
     log = world.log
     c0 = time.process_time()
     flt = world.filters.make(name)
@@ -153,10 +156,12 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
     E = log.n_fixes - a
     rec = BeliefRecorder.empty(E, 16, 15)
     models: dict = {}
+    inv = invariant.is_invariant(name)
 
     def transition(e: int, b: Belief):
         g, f, h = log.epochs.of(a + e)
-        return ins_transition(b.mean, g, f, h, model), None
+        t = ins_transition(b.mean, g, f, h, model)
+        return (invariant.group_transition(t, b.mean) if inv else t), None
 
     def correct(e: int, b: Belief):
         i = a + e
@@ -167,7 +172,9 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
         return post, [inn]
 
     try:
-        out = run_epochs(flt, flt.init(x0, SPACE, cov=P0), E, transition=transition,
+        prior = (flt.init(x0, invariant.GROUP, sqrt=invariant.group_prior(x0, P0)) if inv
+                 else flt.init(x0, SPACE, cov=P0))
+        out = run_epochs(flt, prior, E, transition=transition,
                          correct=correct, record=rec, correct_first=False)
         failure = out.failure
         nis, nis_fix = np.asarray(out.nis), np.asarray(out.nis_epoch, dtype=np.int64) + a
@@ -180,7 +187,8 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
     if np.any(arm):
         with np.errstate(invalid="ignore"):
             p_fix = rec.means[:, :3] + dcm_unit(rec.means[:, 6:10]) @ arm
-    return EstimatorTrack(name, rec.means[:, :3], rec.covs[:, :3, :3], nis, nis_fix, dof, cpu,
+    covs = invariant.world_covariances(rec.means, rec.covs) if inv else rec.covs
+    return EstimatorTrack(name, rec.means[:, :3], covs[:, :3, :3], nis, nis_fix, dof, cpu,
                           failure, p_fix)
 
 

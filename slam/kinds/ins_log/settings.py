@@ -51,11 +51,14 @@ from pathlib import Path
 from typing import Any
 
 from nav.imu_noise import BiasProcess, ImuPsd, datasheet_psd, per_sample_density
+from slam.kinds.ins_log.invariant import VARIANTS
 from slam.kinds.recorded.log import LogFormatError
 from worlds.common import TunedFilters
 
 DEFAULT_FILTERS: tuple[str, ...] = ("ekf", "ckf", "ukf", "srckf")
-FILTERS = ("ekf", "ckf", "ukf", "srckf", "srukf", "srcdkf", "cdkf")
+FILTERS = ("ekf", "ckf", "ukf", "srckf", "srukf", "srcdkf", "cdkf", *VARIANTS)
+"""Every filter a log can run: the INS filters and their right-invariant variants
+(:mod:`slam.kinds.ins_log.invariant`)."""
 DEFAULT_SETTINGS: dict[str, dict[str, Any]] = {
     "unscented": {"alpha": 1.0, "beta": 0.0, "kappa": 1.0},
     "central_difference": {"h": math.sqrt(3.0)},

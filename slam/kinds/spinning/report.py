@@ -10,6 +10,12 @@
   gyro and magnetometer together, gyro only, magnetometer only - and noise shape).
 * How to read this: what differs from the paper and why.
 
+Files: ``truth.tum`` and ``<estimator>.tum`` with ``<estimator>.cov.txt`` of every tracked
+run (run 0; every run with ``slam run --tum all``: :mod:`slam.render.tum`): attitude only
+(zero position), ``q_nb`` of ``C_nb = R_y(yaw) R_z(pitch) R_x(roll)``
+(North-Up-East) from each estimator's pitch and yaw and the roll they imply (eq. 7-8) at
+every epoch; the sidecar holds the estimator's 2 × 2 pitch/yaw covariance.
+
 The figures are :mod:`slam.kinds.spinning.figures`; :data:`REPORT` is the kind's
 :class:`~slam.render.document.KindReport`.
 """
@@ -19,11 +25,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
+from nav.quaternion import dcm_to_q
 from slam.kind import Deferred
-from slam.render import tables
+from slam.render import tables, tum
 from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Section
-from slam.results import REFERENCE
+from slam.results import REFERENCE, Array, RunOutcome
 
 
 def _fallback_cell(name: str, e: dict[str, Any]) -> str:
@@ -402,6 +411,38 @@ def text_table(s: dict[str, Any]) -> str:
                       "", decision_text(s)])
 
 
+TUM_NOTE = (f"{tum.ATTITUDE_NOTE}, navigation frame North-Up-East, C_nb = Ry(yaw) Rz(pitch) "
+            "Rx(roll); the estimators' roll: implied by their pitch and yaw (eq. 7-8); "
+            "poses at the filter epochs")
+TUM_COV = ("t, then the estimator's 2 x 2 covariance of [pitch, yaw] row-major (rad²; the "
+           "roll it implies has none)")
+
+
+def _track(o: RunOutcome, name: str) -> tuple[Array, Array, Array | None]:
+    """``(zero position, q_nb, pitch/yaw covariance)`` of ``name`` on run ``o``."""
+    from slam.kinds.spinning.truth import attitude_dcm
+
+    if name == "truth":
+        angles, cov = o.truth, None
+    else:
+        tr = o.tracks[name]
+        angles, cov = np.column_stack([tr.means, tr.roll]), tr.covs  # type: ignore[attr-defined]
+    q = dcm_to_q(attitude_dcm(angles[:, 0], angles[:, 1], angles[:, 2]))
+    return np.zeros((len(q), 3)), q, cov
+
+
+def write_tum_files(result: Any, out_dir: Any) -> list[str]:
+    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
+    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _track, TUM_NOTE,
+                         TUM_COV)
+
+
+def tum_links(result: Any) -> list[tuple[str, str]]:
+    """The report's entries for :func:`write_tum_files`'s files."""
+    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+
+
 REPORT = KindReport("spinning-projectile attitude campaign", sections,
-                    Deferred("slam.kinds.spinning.figures:figures"), text_table)
+                    Deferred("slam.kinds.spinning.figures:figures"), text_table,
+                    write_tum_files, tum_links)
 """The ``spinning`` kind's report."""
