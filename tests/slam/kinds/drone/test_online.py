@@ -3,12 +3,16 @@ and pose marginal after every epoch over the smoother's graph."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from slam.campaign import run_campaign, run_seeds
+from slam.cli import main
 from slam.kinds.drone.models import QUAT
 from slam.kinds.drone.online import online_drone
 from slam.kinds.drone.reference import smooth_drone
@@ -80,13 +84,6 @@ def test_the_world_key_adds_the_row_scored_like_a_filter_and_not_ranked():
 
 
 def test_cli_online_on_a_drone_world(tmp_path):
-    import json
-    from pathlib import Path
-
-    from click.testing import CliRunner
-
-    from slam.cli import main
-
     world = str(Path(__file__).parents[3] / "golden" / "small-drone.toml")
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["run", world, "--online", "--runs", "1", "--filters",
