@@ -57,6 +57,18 @@ def _row(name: str, e: dict[str, Any], rank: str, online: bool) -> list[str]:
             MISSING if diverged is None else ("yes" if diverged else "no")]
 
 
+TO_ONLINE_COLUMNS = ("pose RMSE to isam2 (m)", "heading RMSE to isam2 (deg)")
+"""The report's columns beside :data:`ONLINE_LOG_COLUMNS`: each filter's difference to the
+online row over their epochs."""
+
+
+def _to_online(rows: list[list[str]], summary: dict[str, Any]) -> list[list[str]]:
+    """``rows`` (in :func:`estimator_entries` order) with :data:`TO_ONLINE_COLUMNS`."""
+    return [[*r, num(e.get("pose_rmse_to_online_m"), ".3f"),
+             num(e.get("heading_rmse_to_online_deg"), ".3f")]
+            for r, (_, e) in zip(rows, estimator_entries(summary))]
+
+
 def log_columns(summary: dict[str, Any]) -> tuple[str, ...]:
     """:data:`ONLINE_LOG_COLUMNS` when the run has the online row, else :data:`LOG_COLUMNS`."""
     return ONLINE_LOG_COLUMNS if summary.get("online") else LOG_COLUMNS
@@ -106,7 +118,9 @@ HOW_TO_READ = (
     "row `isam2` is iSAM2's current pose and marginal after each filter epoch (the online "
     "optimum: the same records up to that pose), scored like a filter and not ranked; "
     "the table then shows each row's time per epoch and its own heading σ at the last "
-    "epoch (the smoother's: its marginal at the last pose). The ranking orders the "
+    "epoch (the smoother's: its marginal at the last pose), and the report each filter's "
+    "position and heading RMS difference to `isam2` over their epochs. The ranking "
+    "orders the "
     "filters by their mean squared position (and heading) difference to the smoother over "
     "their epochs; a log is one run, so no difference can be called significant. The "
     "filters' own "
@@ -115,8 +129,10 @@ HOW_TO_READ = (
 
 def _sections(summary: dict[str, Any]) -> list[Section]:
     head, *rest = decision_sections(summary) or [None]
-    return [s for s in (head, Section("Results", log_columns(summary), log_rows(summary),
-                                      log_head(summary)), *rest,
+    columns, rows = log_columns(summary), log_rows(summary)
+    if summary.get("online"):
+        columns, rows = (*columns, *TO_ONLINE_COLUMNS), _to_online(rows, summary)
+    return [s for s in (head, Section("Results", columns, rows, log_head(summary)), *rest,
                         Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 

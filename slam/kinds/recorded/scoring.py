@@ -77,6 +77,20 @@ def score_filter(result: SlamResult, ref: RecordedReference | None,
     return out
 
 
+def to_online(result: SlamResult, row: SlamResult) -> dict[str, float]:
+    """A filter's position and heading RMS difference (m, deg) to the online row over the
+    epochs both estimated (the same epochs: :func:`run_log`); empty if there are none."""
+    if not np.array_equal(result.steps, row.steps):
+        return {}
+    ok = np.all(np.isfinite(result.poses), axis=1) & np.all(np.isfinite(row.poses), axis=1)
+    if not ok.any():
+        return {}
+    e = result.poses[ok, :2] - row.poses[ok, :2]
+    dh = np.degrees(wrap_angle(result.poses[ok, 2] - row.poses[ok, 2]))
+    return {"pose_rmse_to_online_m": float(np.sqrt(np.mean(np.sum(e**2, axis=1)))),
+            "heading_rmse_to_online_deg": float(np.sqrt(np.mean(dh**2)))}
+
+
 def _rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
     """Best rotation + translation of points ``A`` onto ``B`` (least squares): the
     rotation (deg) and the distances left after it.  Separates a map that is rotated as
@@ -108,8 +122,9 @@ def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FIL
     maps a filter name to its settings (:func:`estimators.make_filter`'s keywords).
 
     ``online``: also the online row ``isam2`` (:mod:`slam.kinds.recorded.online`, the
-    smoother from the same pass) in group ``online``, scored like a filter, and every
-    row's final heading σ (the smoother's: its ``gtsam.Marginals`` at the last pose)."""
+    smoother from the same pass) in group ``online``, scored like a filter, every row's
+    final heading σ (the smoother's: its ``gtsam.Marginals`` at the last pose) and each
+    filter's difference to the online row (:func:`to_online`)."""
     results = {}
     for name in filters:
         results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps,
@@ -142,6 +157,9 @@ def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FIL
     if online:
         head["online"] = {ONLINE: score_filter(row, ref, True) if row is not None else
                           {"diverged": True, "failure": failure}}
+        if row is not None:
+            for n, r in results.items():
+                head["filters"][n].update(to_online(r, row))
     if ref is None:  # the smoother failed: the filters are unscored, nothing is lost
         return {**head, "baselines": {"odometry": {}},
                 "reference": {"gtsam": {"diverged": True, "failure": failure}}}

@@ -4,6 +4,7 @@ filter epoch, from the smoother's own pass."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import gtsam
@@ -17,6 +18,7 @@ from slam.kinds.recorded.log import format_odometry_log, parse_odometry_log
 from slam.kinds.recorded.models import recorded_epochs
 from slam.kinds.recorded.online import online_recorded
 from slam.kinds.recorded.reference import smooth_recorded
+from slam.kinds.recorded.scoring import to_online
 from tests.slam.kinds.recorded.synthetic import synthetic_log
 
 
@@ -62,6 +64,19 @@ def test_the_smoother_from_the_online_pass_is_the_plain_one(park):
     assert final == pytest.approx(np.sqrt(plain.final_pose_cov[2, 2]), rel=1e-3)
 
 
+def test_the_difference_to_the_online_row_is_over_the_common_epochs(park):
+    _, _, row, _ = park
+    poses = row.poses.copy()
+    poses[:, 0] += 0.3
+    poses[5:, 2] += np.radians(2.0)
+    poses[-3:] = np.nan  # a filter that diverged near the end
+    d = to_online(replace(row, poses=poses), row)
+    assert d["pose_rmse_to_online_m"] == pytest.approx(0.3, rel=1e-9)
+    n = len(poses) - 3
+    assert d["heading_rmse_to_online_deg"] == pytest.approx(2.0 * np.sqrt((n - 5) / n), rel=1e-9)
+    assert to_online(replace(row, steps=row.steps[:-1], poses=poses[:-1]), row) == {}
+
+
 def test_cli_online_adds_the_row_and_every_final_heading_sigma(tmp_path):
     log = synthetic_log(np.random.default_rng(2), n_poses=30, n_landmarks=4)
     path = tmp_path / "small.txt"
@@ -75,6 +90,9 @@ def test_cli_online_adds_the_row_and_every_final_heading_sigma(tmp_path):
     assert row["diverged"] is False and np.isfinite(row["pose_rmse_to_ref_m"])
     for e in (*data["filters"].values(), row, data["reference"]["gtsam"]):
         assert e["final_heading_sigma_deg"] > 0.0
+    for e in data["filters"].values():  # the difference to the online row, in the report
+        assert e["pose_rmse_to_online_m"] >= 0.0 and e["heading_rmse_to_online_deg"] >= 0.0
+    assert "pose RMSE to isam2 (m)" in (out / "report.md").read_text()
     assert sorted(data["ranking"]["position"]["order"]) == ["ekf", "ekf-inv"]  # not ranked
     assert "isam2" in res.output and "ms/epoch" in res.output
     table = res.output.split("\n\n")[1]  # under the log's sentence
