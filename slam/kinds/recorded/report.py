@@ -58,14 +58,15 @@ def _row(name: str, e: dict[str, Any], rank: str, online: bool) -> list[str]:
 
 
 TO_ONLINE_COLUMNS = ("pose RMSE to isam2 (m)", "heading RMSE to isam2 (deg)")
-"""The report's columns beside :data:`ONLINE_LOG_COLUMNS`: each filter's difference to the
-online row over their epochs."""
+"""The report's columns before ``diverged`` with the online row: each filter's difference
+to the online row over their epochs."""
 
 
 def _to_online(rows: list[list[str]], summary: dict[str, Any]) -> list[list[str]]:
-    """``rows`` (in :func:`estimator_entries` order) with :data:`TO_ONLINE_COLUMNS`."""
-    return [[*r, num(e.get("pose_rmse_to_online_m"), ".3f"),
-             num(e.get("heading_rmse_to_online_deg"), ".3f")]
+    """``rows`` (in :func:`estimator_entries` order) with :data:`TO_ONLINE_COLUMNS` before
+    their last cell (``diverged``)."""
+    return [[*r[:-1], num(e.get("pose_rmse_to_online_m"), ".3f"),
+             num(e.get("heading_rmse_to_online_deg"), ".3f"), r[-1]]
             for r, (_, e) in zip(rows, estimator_entries(summary))]
 
 
@@ -131,7 +132,8 @@ def _sections(summary: dict[str, Any]) -> list[Section]:
     head, *rest = decision_sections(summary) or [None]
     columns, rows = log_columns(summary), log_rows(summary)
     if summary.get("online"):
-        columns, rows = (*columns, *TO_ONLINE_COLUMNS), _to_online(rows, summary)
+        columns, rows = (*columns[:-1], *TO_ONLINE_COLUMNS, columns[-1]), _to_online(rows,
+                                                                                   summary)
     return [s for s in (head, Section("Results", columns, rows, log_head(summary)), *rest,
                         Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
