@@ -225,7 +225,8 @@ def _stop_signals() -> Iterator[dict[str, int]]:
                    "reference path. Both give the same numbers to round-off.")
 @click.option("--online", is_flag=True,
               help="Also score iSAM2's current pose after every epoch (row isam2, the online "
-                   "optimum) - planar worlds; the world's [filters] online.")
+                   "optimum) - planar and drone worlds (the world's [filters] online) and "
+                   "recorded planar logs.")
 @click.option("--fixed-lag", "fixed_lags", type=float, multiple=True, metavar="S",
               help="Also score a fixed-lag smoother of lag S seconds, in [0, 1e6] (row "
                    "fls-<S>s; repeatable) - planar worlds; adds to [filters] fixed_lags_s.")

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from slam.kinds.drone.scene import IMU_ONLY, drone_colours, result_terrain
+from slam.kinds.planar.figures import online_colours, with_online
 from slam.render.consistency import NeesSpec, consistency_figure
 from slam.render.figures import (
     COINCIDE,
@@ -93,7 +94,9 @@ def shared_specs() -> list[FigureSpec]:
                    "attitude]) and attitude NEES / 3 per epoch (run averages) against their "
                    "95 % bands with the fraction of epochs inside, and the filters' NIS / "
                    "dof (grey: its band, which varies with the landmarks seen); right: the "
-                   "per-run time averages.", consistency_figure(NEES)),
+                   "per-run time averages. The online row (isam2: the online optimum), when "
+                   "run, is drawn beside the filters.",
+                   consistency_figure(NEES, estimators=with_online, colours=online_colours)),
         FigureSpec("landmarks.png", "The filters' maps per epoch (run averages): RMSE and "
                    "NEES / 3 of the landmarks in the state (against the band), landmarks in "
                    "the state, trace of the map covariance; the smoother's final landmark "

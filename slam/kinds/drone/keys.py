@@ -53,4 +53,6 @@ DESCRIPTIONS: dict[str, str] = {
     "filters.imu_noise_scale": "the filters assume the IMU noise variances times this",
     "filters.sensor_noise_scale": "the filters assume the sensor noise variances times this",
     "filters.divergence_m": "a run whose position error exceeds this counts as diverged",
+    "filters.online": "also score iSAM2's current state and marginal after every epoch (row "
+                      "isam2, the online optimum; --online)",
 }

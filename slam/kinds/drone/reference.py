@@ -63,6 +63,7 @@ with :math:`\delta p = R\,\delta t`.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import gtsam
 import numpy as np
@@ -204,17 +205,22 @@ def _isam(graph: gtsam.NonlinearFactorGraph, vals: gtsam.Values) -> gtsam.ISAM2:
     return isam
 
 
-def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | None
+def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | None,
+                on_update: Callable[[int, gtsam.ISAM2], None] | None = None
                 ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
     """The factor graph fed to iSAM2 ``feed`` epochs per update, each new state predicted
     by preintegration from iSAM2's estimate at the start of its update.  ``pims``: the
     intervals preintegrated beforehand (:func:`_prior_preintegrations`); None: each
     interval preintegrated about iSAM2's bias estimate at the start of its update (the
-    graph then depends on ``feed``).  Returns the graph, iSAM2's final estimate and the
+    graph then depends on ``feed``).  ``on_update(e, isam)`` is called after the priors'
+    update (``e = 0``) and after each update ending with epoch ``e`` (the online row,
+    :mod:`slam.kinds.drone.online`).  Returns the graph, iSAM2's final estimate and the
     landmarks seen."""
     graph, vals = _prior_factors(log)
     pose_prev, vel_prev, bias_prev = vals.atPose3(X(0)), vals.atVector(V(0)), _bias(log.x0)
     isam = _isam(graph, vals)
+    if on_update is not None:
+        on_update(0, isam)
     obs_at, seen, E = log.observations_at(), set(), log.n_epochs
     new_f, new_v = gtsam.NonlinearFactorGraph(), gtsam.Values()
     for e in range(1, E):
@@ -236,6 +242,8 @@ def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | N
         pose_prev = isam.calculateEstimatePose3(X(e))
         vel_prev = isam.calculateEstimateVector(V(e))
         bias_prev = isam.calculateEstimateConstantBias(B(e))
+        if on_update is not None:
+            on_update(e, isam)
     return graph, isam.calculateEstimate(), seen
 
 

@@ -18,7 +18,9 @@ One Monte Carlo run (:func:`run_once`):
    batch update with the re-observed landmarks, then augmentation with the new ones;
    :mod:`slam.kinds.drone.models`), the IMU-only baseline (:func:`imu_only`: pure
    mechanisation from the initial state with zero bias estimates, covariance by the
-   EKF's prediction) and the GTSAM smoother (:mod:`slam.kinds.drone.reference`).
+   EKF's prediction), the GTSAM smoother (:mod:`slam.kinds.drone.reference`) and, with
+   ``[filters] online``, the online row ``isam2`` (:mod:`slam.kinds.drone.online`),
+   scored like a filter and not ranked.
 4. **Scores** (:class:`DroneScores`) at the sensor epochs: position error (ENU, m) and
    its own σ; roll/pitch/yaw error (aerospace Z-Y-X Euler angles of ``q_nb`` with body
    forward-left-up: roll about x, pitch about y, positive nose-down; yaw from east,
@@ -34,18 +36,21 @@ dict: the headline ANEES is the **3-dof position** ANEES (``anees``, band
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from slam.decision import Consistency, decide
 from slam.failures import run_reference
-from slam.kinds.drone.filtering import IMU_ONLY, imu_only, run_drone_batch
+from slam.kinds.drone.filtering import IMU_ONLY, DroneEstimate, imu_only, run_drone_batch
+from slam.kinds.drone.online import online_drone
 from slam.kinds.drone.reference import failed_reference, smooth_drone
 from slam.kinds.drone.scoring import score, summarize_scores, track_of
 from slam.kinds.drone.simulate import simulate_drone
 from slam.kinds.drone.truth import truth_of
 from slam.kinds.drone.variants import INVARIANT_BASES
+from slam.kinds.planar.world import ONLINE
 from slam.ranking import Metric, per_run, per_run_mse
 from slam.results import REFERENCE, RunOutcome
 from slam.scoring import landmark_anees_entries
@@ -103,6 +108,8 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
             out.append(e)
     outcomes = []
     for i, (run, log) in enumerate(zip(runs, logs)):
+        if getattr(fs, "online", False):
+            ests[i].append(_online(log, fs))
         ests[i].append(imu_only(log, fs.imu_noise_scale))
         if reference:
             ref, failure = run_reference(smooth_drone, log, imu_noise_scale=fs.imu_noise_scale,
@@ -116,6 +123,17 @@ def run_batch(world, runs: Sequence[int], seed_seqs: Sequence[np.random.SeedSequ
                                    log.landmarks if keep else None,
                                    log.times if keep else None))
     return outcomes
+
+
+def _online(log, fs) -> DroneEstimate:
+    """The online row on ``log`` (:func:`~slam.kinds.drone.online.online_drone`); a
+    numerical failure marks it diverged on this run with its reason."""
+    est, failure = run_reference(online_drone, log, imu_noise_scale=fs.imu_noise_scale,
+                                 sensor_noise_scale=fs.sensor_noise_scale)
+    if est is not None:
+        return est
+    failed = failed_reference(log, failure or "")
+    return replace(failed, name=ONLINE)
 
 
 def headline_metrics(outcomes: list[RunOutcome], names: Sequence[str]) -> list[Metric]:
@@ -163,6 +181,8 @@ def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs:
         "filter_descriptions": {n_: FILTER_DESCRIPTIONS.get(n_, n_) for n_ in filters},
         "baselines": {IMU_ONLY: entry(IMU_ONLY)},
     }
+    if any(ONLINE in o.scores for o in outcomes):
+        out["online"] = {ONLINE: entry(ONLINE)}
     if any(REFERENCE in o.scores for o in outcomes):
         ref = entry(REFERENCE)
         good = [o.scores[REFERENCE] for o in outcomes

@@ -31,7 +31,8 @@ File layout::
     [filters]  names (also srckf-inv, ekf-inv, ...: slam/kinds/drone/variants.py),
                association ("known" | "nn"), gate_accept, gate_new, mode ("joint" | "local";
                local: ekf, srckf, srukf, srcdkf and their -inv), imu_noise_scale,
-               sensor_noise_scale, divergence_m
+               sensor_noise_scale, divergence_m, online (true: also score iSAM2's state
+               after every epoch, row "isam2"; off by default: slam/kinds/drone/online.py)
     [paper]    free-form: the paper's reported numbers, passed through to summary.json
 
 IMU defaults are industrial MEMS grade (a calibrated flight-controller IMU): gyro
@@ -173,13 +174,15 @@ class DroneFilterSpec(FilterSpec):
     """The planar SLAM filter spec with the drone's gates, and what the filters assume:
     the IMU and sensor noise variances of the world times ``imu_noise_scale`` /
     ``sensor_noise_scale``.  A run whose position error exceeds ``divergence_m`` is
-    stopped and reported diverged."""
+    stopped and reported diverged.  ``online`` adds the online row ``isam2`` (iSAM2's
+    state and marginal after every epoch, :mod:`slam.kinds.drone.online`)."""
 
     gate_accept: float = 7.8
     gate_new: float = 30.0
     imu_noise_scale: float = 1.0
     sensor_noise_scale: float = 1.0
     divergence_m: float = 25.0
+    online: bool = False
 
 
 @dataclass(frozen=True)
@@ -283,6 +286,7 @@ WORLD = wc.world(KIND, DroneWorld, {
         imu_noise_scale=ws.Sigma(ws.positive(1e6), default=1.0, power=1),
         sensor_noise_scale=ws.Sigma(ws.positive(1e6), default=1.0, power=1),
         divergence_m=ws.Number(ws.positive(1e6), default=25.0),
+        online=ws.Boolean(default=False),
     ),
 }, paper=wc.PAPER_RANGES)
 SCHEMA = WORLD.schema

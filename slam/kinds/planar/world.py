@@ -398,7 +398,12 @@ def with_online(w: Any, online: bool, fixed_lags: tuple[float, ...]) -> Any:
     if not hasattr(w.filters, "online"):
         opt = "--online" if online else "--fixed-lag"
         raise ValueError(f"{opt}: world {w.name} (kind {w.kind}) has no online rows "
-                         "(planar-slam worlds only)")
+                         "(planar-slam and drone-slam worlds, recorded planar logs)")
+    if fixed_lags and not hasattr(w.filters, "fixed_lags_s"):
+        raise ValueError(f"--fixed-lag: world {w.name} (kind {w.kind}) has no fixed-lag "
+                         "rows (planar-slam worlds only)")
+    if not fixed_lags:
+        return replace(w, filters=replace(w.filters, online=True))
     lags = list(w.filters.fixed_lags_s)
     for lag in fixed_lags:
         if not (math.isfinite(lag) and 0.0 <= lag <= MAX_LAG_S):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,9 +49,14 @@ def bearing_range(z: Array, cov: Array) -> tuple[float, float, Array]:
 
 
 def smooth_recorded(log: OdometryLog, *, lm_iterations: int = 100,
-                    final_marginal: bool = False) -> RecordedReference:
+                    final_marginal: bool = False,
+                    on_pose: Callable[[int, Any, Any], None] | None = None
+                    ) -> RecordedReference:
     """Smooth a recorded log with GTSAM: iSAM2 pose by pose, then a batch LM polish;
-    with ``final_marginal`` also the last pose's marginal covariance (``gtsam.Marginals``)."""
+    with ``final_marginal`` also the last pose's marginal covariance (``gtsam.Marginals``).
+    ``on_pose(k, key, isam)`` is called after iSAM2's update with pose ``k`` of the chain
+    (``key`` its symbol); the online row reads iSAM2's current estimate there
+    (:mod:`slam.kinds.recorded.online`)."""
     import gtsam
     from gtsam.symbol_shorthand import L, X
 
@@ -104,6 +110,8 @@ def smooth_recorded(log: OdometryLog, *, lm_iterations: int = 100,
         graph.push_back(new_f)
         isam.update(new_f, new_v)
         pose_est = isam.calculateEstimatePose2(key)
+        if on_pose is not None:
+            on_pose(k, key, isam)
     est = isam.calculateEstimate()
     t1 = time.perf_counter()
     obj_isam = float(graph.error(est))

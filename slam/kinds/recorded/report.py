@@ -21,6 +21,7 @@ from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section
 from slam.render.output import write_tum
 from slam.render.tables import (
+    EPOCH_TIME,
     MISSING,
     RUN_TIME,
     estimator_entries,
@@ -37,23 +38,49 @@ LOG_COLUMNS = ("estimator", "rank\npos", "lm dist\nmed (m)", "lm dist\nmax (m)",
                "iSAM2 /\nfilter", "diverged")
 
 
-def _row(name: str, e: dict[str, Any], rank: str) -> list[str]:
+ONLINE_LOG_COLUMNS = (*LOG_COLUMNS[:8], EPOCH_TIME, "final\nσθ (°)", "diverged")
+"""The columns with the online row (``--online``): time per epoch and the final heading σ
+in place of the time per run and the iSAM2 / filter ratio."""
+
+
+def _row(name: str, e: dict[str, Any], rank: str, online: bool) -> list[str]:
     diverged = e.get("diverged")
+    last = ([num(e.get("time_per_epoch_ms"), ".3f"), num(e.get("final_heading_sigma_deg"),
+                                                            ".3f")] if online else
+            [num(e.get("time_s"), ".2f"), num(e.get("isam2_time_over_filter_time"), ".1f")])
     return [name, rank, num(e.get("landmark_dist_to_ref_median_m"), ".3f"),
             num(e.get("landmark_dist_to_ref_max_m"), ".3f"),
             num(e.get("landmark_dist_to_ref_aligned_median_m"), ".3f"),
             num(e.get("map_rotation_to_ref_deg"), "+.2f"),
             num(e.get("final_pose_dist_to_ref_m"), ".3f"),
-            num(e.get("pose_rmse_to_ref_m"), ".3f"), num(e.get("time_s"), ".2f"),
-            num(e.get("isam2_time_over_filter_time"), ".1f"),
+            num(e.get("pose_rmse_to_ref_m"), ".3f"), *last,
             MISSING if diverged is None else ("yes" if diverged else "no")]
 
 
+TO_ONLINE_COLUMNS = ("pose RMSE to isam2 (m)", "heading RMSE to isam2 (deg)")
+"""The report's columns before ``diverged`` with the online row: each filter's difference
+to the online row over their epochs."""
+
+
+def _to_online(rows: list[list[str]], summary: dict[str, Any]) -> list[list[str]]:
+    """``rows`` (in :func:`estimator_entries` order) with :data:`TO_ONLINE_COLUMNS` before
+    their last cell (``diverged``)."""
+    return [[*r[:-1], num(e.get("pose_rmse_to_online_m"), ".3f"),
+             num(e.get("heading_rmse_to_online_deg"), ".3f"), r[-1]]
+            for r, (_, e) in zip(rows, estimator_entries(summary))]
+
+
+def log_columns(summary: dict[str, Any]) -> tuple[str, ...]:
+    """:data:`ONLINE_LOG_COLUMNS` when the run has the online row, else :data:`LOG_COLUMNS`."""
+    return ONLINE_LOG_COLUMNS if summary.get("online") else LOG_COLUMNS
+
+
 def log_rows(summary: dict[str, Any]) -> list[list[str]]:
-    """One row per filter, the odometry and the smoother (distances are to the smoother;
-    the rank is the filters' by position difference to the smoother)."""
+    """One row per filter, the online row, the odometry and the smoother (distances are
+    to the smoother; the rank is the filters' by position difference to the smoother)."""
     rank = rank_column(summary, "position").cell
-    return [_row(name, e, rank(name, e)) for name, e in estimator_entries(summary)]
+    online = bool(summary.get("online"))
+    return [_row(name, e, rank(name, e), online) for name, e in estimator_entries(summary)]
 
 
 def log_head(summary: dict[str, Any]) -> str:
@@ -75,7 +102,8 @@ def log_table(summary: dict[str, Any]) -> str:
     notes = [*failure_notes(summary),
              "Distances are to the smoother's estimate; aligned: after the best rigid "
              "rotation + translation of the filter's map. Figures: report.html"]
-    return "\n".join([wrap(log_head(summary)), "", plain_table(LOG_COLUMNS, log_rows(summary)),
+    return "\n".join([wrap(log_head(summary)), "",
+                      plain_table(log_columns(summary), log_rows(summary)),
                       *(wrap(n) for n in notes), "", decision_text(summary)])
 
 
@@ -87,7 +115,13 @@ HOW_TO_READ = (
     "whole filter map (a map rotated as a whole is a heading error, what remains is "
     "distortion); `map rot.` that rotation; `final pose` the distance between the final "
     "poses; `pose RMSE` the position difference to the smoother over the filter's epochs; "
-    "`iSAM2 / filter` the smoother's iSAM2 time over the filter's. The ranking orders the "
+    "`iSAM2 / filter` the smoother's iSAM2 time over the filter's. With `--online` the "
+    "row `isam2` is iSAM2's current pose and marginal after each filter epoch (the online "
+    "optimum: the same records up to that pose), scored like a filter and not ranked; "
+    "the table then shows each row's time per epoch and its own heading σ at the last "
+    "epoch (the smoother's: its marginal at the last pose), and the report each filter's "
+    "position and heading RMS difference to `isam2` over their epochs. The ranking "
+    "orders the "
     "filters by their mean squared position (and heading) difference to the smoother over "
     "their epochs; a log is one run, so no difference can be called significant. The "
     "filters' own "
@@ -96,8 +130,11 @@ HOW_TO_READ = (
 
 def _sections(summary: dict[str, Any]) -> list[Section]:
     head, *rest = decision_sections(summary) or [None]
-    return [s for s in (head, Section("Results", LOG_COLUMNS, log_rows(summary),
-                                      log_head(summary)), *rest,
+    columns, rows = log_columns(summary), log_rows(summary)
+    if summary.get("online"):
+        columns, rows = (*columns[:-1], *TO_ONLINE_COLUMNS, columns[-1]), _to_online(rows,
+                                                                                   summary)
+    return [s for s in (head, Section("Results", columns, rows, log_head(summary)), *rest,
                         Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 

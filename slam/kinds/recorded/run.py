@@ -21,13 +21,13 @@ from slam.kinds.recorded.world import KIND, RecordedWorld
 from slam.ranking import Metric, per_run
 from slam.results import RunOutcome
 
-_GROUPS = ("filters", "baselines", "reference")
+_GROUPS = ("filters", "online", "baselines", "reference")
 
 
 @dataclass(frozen=True)
 class RecordedScores:
     """One estimator's entry of a recorded-log run: its group in the summary
-    (filters / baselines / reference) and its values."""
+    (filters / online / baselines / reference) and its values."""
 
     name: str
     group: str
@@ -38,16 +38,18 @@ class RecordedScores:
 
 def run_once(world: RecordedWorld, run: int, seed_seq: np.random.SeedSequence,
              filters: Sequence[str], keep_tracks: bool = False) -> RunOutcome:
-    """Run the filters and the smoother on the log (the seed is unused).  With
+    """Run the filters and the smoother on the log (the seed is unused), and the online
+    row ``isam2`` when the world's filters ask for it (``--online``).  With
     ``keep_tracks`` the outcome's tracks are every estimator's
     :class:`~slam.mapping.problem.SlamResult` (:func:`~slam.kinds.recorded.tracks.log_tracks`)
     and ``times`` the chain indices of the poses (a log has no clock)."""
     kept: dict[str, Any] | None = {} if keep_tracks else None
     s = run_log(world.log, list(filters), mode=world.filters.mode, keep=kept,
-                settings={n: world.filters.settings_of(n) for n in filters})
+                settings={n: world.filters.settings_of(n) for n in filters},
+                online=world.filters.online)
     scores = {name: RecordedScores(name, group, entry, bool(entry.get("diverged", False)),
                                    entry.get("failure"))
-              for group in _GROUPS for name, entry in s[group].items()}
+              for group in _GROUPS for name, entry in s.get(group, {}).items()}
     if kept is None:
         return RunOutcome(run, scores)
     return RunOutcome(run, scores, log_tracks(world.log, kept),  # type: ignore[arg-type]
@@ -93,7 +95,9 @@ def summarize(world: RecordedWorld, outcomes: list[RunOutcome], filters: list[st
     }
     scores = outcomes[0].scores
     for group in _GROUPS:
-        out[group] = {n: s.values for n, s in scores.items() if s.group == group}
+        entries = {n: s.values for n, s in scores.items() if s.group == group}
+        if entries or group != "online":
+            out[group] = entries
     out["kind"] = KIND
     out["world"] = world.name
     fs = world.filters

@@ -11,21 +11,39 @@ import numpy as np
 from estimators import wrap_angle
 from estimators.linalg import Array
 from slam.failures import run_reference
+from slam.kinds.planar.world import ONLINE
 from slam.kinds.recorded.log import DEFAULT_FILTERS, DEFAULT_MAX_EPOCH_STEPS, OdometryLog
-from slam.kinds.recorded.models import dead_reckoning_poses, run_recorded
+from slam.kinds.recorded.models import dead_reckoning_poses, recorded_epochs, run_recorded
+from slam.kinds.recorded.online import online_recorded
 from slam.kinds.recorded.reference import RecordedReference, smooth_recorded
 from slam.mapping.problem import SlamResult
 
 # --------------------------------------------------------------------------- scoring
 
 
-def score_filter(result: SlamResult, ref: RecordedReference | None) -> dict[str, Any]:
+def heading_sigma_deg(cov: Array) -> float | None:
+    """σ of the heading (deg) of a pose covariance ``[x, y, θ]`` (None if not finite)."""
+    v = float(cov[2, 2])
+    return float(np.degrees(np.sqrt(v))) if np.isfinite(v) and v >= 0.0 else None
+
+
+def score_filter(result: SlamResult, ref: RecordedReference | None,
+                 sigma: bool = False) -> dict[str, Any]:
     """One filter against the smoother (keys that do not apply are left out; only the
-    filter's own keys when the smoother failed, ``ref = None``)."""
+    filter's own keys when the smoother failed, ``ref = None``); ``time_per_epoch_ms``
+    is ``time_s`` over the epochs after the first; with ``sigma`` also the filter's own
+    heading σ at its last epoch (``final_heading_sigma_deg``, the online rows' yardstick:
+    :func:`run_log`)."""
     out: dict[str, Any] = {"time_s": result.time_s, "diverged": result.diverged,
                            "landmarks_mapped": int(len(result.landmark_ids))}
+    if len(result.steps) > 1:
+        out["time_per_epoch_ms"] = 1e3 * result.time_s / (len(result.steps) - 1)
     if result.failure:
         out["failure"] = result.failure
+    if sigma and len(result.pose_cov):
+        h = heading_sigma_deg(result.pose_cov[-1])
+        if h is not None:
+            out["final_heading_sigma_deg"] = h
     if ref is None:
         return out
     pos = {int(j): i for i, j in enumerate(ref.landmark_ids)}
@@ -59,6 +77,20 @@ def score_filter(result: SlamResult, ref: RecordedReference | None) -> dict[str,
     return out
 
 
+def to_online(result: SlamResult, row: SlamResult) -> dict[str, float]:
+    """A filter's position and heading RMS difference (m, deg) to the online row over the
+    epochs both estimated (the same epochs: :func:`run_log`); empty if there are none."""
+    if not np.array_equal(result.steps, row.steps):
+        return {}
+    ok = np.all(np.isfinite(result.poses), axis=1) & np.all(np.isfinite(row.poses), axis=1)
+    if not ok.any():
+        return {}
+    e = result.poses[ok, :2] - row.poses[ok, :2]
+    dh = np.degrees(wrap_angle(result.poses[ok, 2] - row.poses[ok, 2]))
+    return {"pose_rmse_to_online_m": float(np.sqrt(np.mean(np.sum(e**2, axis=1)))),
+            "heading_rmse_to_online_deg": float(np.sqrt(np.mean(dh**2)))}
+
+
 def _rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
     """Best rotation + translation of points ``A`` onto ``B`` (least squares): the
     rotation (deg) and the distances left after it.  Separates a map that is rotated as
@@ -81,21 +113,36 @@ def rigid_fit(A: Array, B: Array) -> tuple[float, Array]:
 def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FILTERS, *,
             mode: str = "local", max_epoch_steps: int = DEFAULT_MAX_EPOCH_STEPS,
             progress=None, keep: dict[str, Any] | None = None,
-            settings: dict[str, dict[str, Any]] | None = None) -> dict[str, Any]:
+            settings: dict[str, dict[str, Any]] | None = None,
+            online: bool = False) -> dict[str, Any]:
     """Run the filters and the smoother on ``log``; the ``summary.json`` dict.  With
     ``keep`` (a dict) the raw outputs are left in it for the report: ``results`` (filter
     name -> :class:`~slam.mapping.problem.SlamResult`) and ``reference`` (the smoother's
     :class:`~slam.kinds.recorded.reference.RecordedReference` or None).  ``settings``
-    maps a filter name to its settings (:func:`estimators.make_filter`'s keywords)."""
+    maps a filter name to its settings (:func:`estimators.make_filter`'s keywords).
+
+    ``online``: also the online row ``isam2`` (:mod:`slam.kinds.recorded.online`, the
+    smoother from the same pass) in group ``online``, scored like a filter, every row's
+    final heading σ (the smoother's: its ``gtsam.Marginals`` at the last pose) and each
+    filter's difference to the online row (:func:`to_online`)."""
     results = {}
     for name in filters:
         results[name] = run_recorded(log, name, mode=mode, max_epoch_steps=max_epoch_steps,
                                      filter_params=(settings or {}).get(name))
         if progress:
             progress(1)
-    ref, failure = run_reference(smooth_recorded, log)
+    row: SlamResult | None = None
+    if online:
+        both, failure = run_reference(online_recorded, log,
+                                      recorded_epochs(log, max_epoch_steps),
+                                      final_marginal=True)
+        row, ref = both if both is not None else (None, None)
+    else:
+        ref, failure = run_reference(smooth_recorded, log)
     if keep is not None:
         keep.update(results=results, reference=ref)
+        if row is not None:
+            keep["online"] = {ONLINE: row}
     if progress:
         progress(1)
     head = {
@@ -105,8 +152,14 @@ def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FIL
         "poses": log.n_poses,
         "landmarks": int(len(log.landmark_ids)),
         "observations": int(len(log.obs_id)),
-        "filters": {n: score_filter(r, ref) for n, r in results.items()},
+        "filters": {n: score_filter(r, ref, online) for n, r in results.items()},
     }
+    if online:
+        head["online"] = {ONLINE: score_filter(row, ref, True) if row is not None else
+                          {"diverged": True, "failure": failure}}
+        if row is not None:
+            for n, r in results.items():
+                head["filters"][n].update(to_online(r, row))
     if ref is None:  # the smoother failed: the filters are unscored, nothing is lost
         return {**head, "baselines": {"odometry": {}},
                 "reference": {"gtsam": {"diverged": True, "failure": failure}}}
@@ -125,6 +178,8 @@ def run_log(log: OdometryLog, filters: tuple[str, ...] | list[str] = DEFAULT_FIL
             "time_isam2_s": ref.time_isam2_s,
             "time_lm_s": ref.time_lm_s,
             "time_s": ref.time_s,
+            **({"final_heading_sigma_deg": heading_sigma_deg(ref.final_pose_cov)}
+               if ref.final_pose_cov is not None else {}),
         }},
     }
 

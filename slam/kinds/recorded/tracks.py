@@ -24,9 +24,10 @@ def _posed(name: str, poses: np.ndarray, ids: np.ndarray, landmarks: np.ndarray,
 
 
 def log_tracks(log: OdometryLog, kept: dict[str, Any]) -> dict[str, SlamResult]:
-    """The filters' results (``kept["results"]``), the smoother's poses and map
-    (``kept["reference"]``, if it did not fail) and the compounded odometry."""
-    out = dict(kept.get("results", {}))
+    """The filters' results (``kept["results"]``), the online row (``kept["online"]``),
+    the smoother's poses and map (``kept["reference"]``, if it did not fail) and the
+    compounded odometry."""
+    out = {**kept.get("results", {}), **kept.get("online", {})}
     ref = kept.get("reference")
     if ref is not None:
         out[REFERENCE] = _posed(REFERENCE, ref.poses, ref.landmark_ids, ref.landmarks,

@@ -38,10 +38,13 @@ the iterated updates at most 5 iterations down to a whitened step of 1e-9."""
 
 @dataclass(frozen=True)
 class RecordedFilters(TunedFilters):
-    """The filters run on the log, their mode and settings (:data:`LOG_SETTINGS`)."""
+    """The filters run on the log, their mode and settings (:data:`LOG_SETTINGS`);
+    ``online`` adds the online row ``isam2`` (``--online``,
+    :mod:`slam.kinds.recorded.online`)."""
 
     names: tuple[str, ...]
     mode: str
+    online: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,0 +1,68 @@
+r"""The drone's online optimum (row ``isam2``, ``[filters] online`` / ``--online``): iSAM2's
+current state after every sensor epoch with its marginal covariance.
+
+A filter's estimate at epoch :math:`k` uses the IMU samples and sightings up to :math:`k`;
+the best an online Gaussian estimator can do there is the MAP estimate of the state at
+:math:`k` given them, with its marginal covariance.  That is what iSAM2 holds after its
+update with epoch :math:`k` over the smoother's graph (:mod:`slam.kinds.drone.reference`:
+the same priors, ``CombinedImuFactor`` and ``BearingRangeFactor3D``), fed one epoch per
+update (:func:`~slam.kinds.drone.reference._solve_isam` with ``feed = 1``), every interval
+preintegrated about the prior bias - the smoother's default bias point - so the graph up
+to :math:`k` is the log's alone and the row's last epoch is the final smoother's.  At each
+epoch the row reads ``calculateEstimate`` of ``X(k)``, ``V(k)``, ``B(k)`` and
+``marginalCovariance(X(k))`` (``Pose3`` ``[rotation, translation]``, body frame), taken to
+the filters' ``[δp (world), δθ (body)]`` - the rows the drone's position and pose NEES are
+computed on (:func:`slam.kinds.drone.scoring.score`).  The map is iSAM2's after the last
+epoch.  The keyframes smoother stays the batch reference: this pass costs about one
+iSAM2 update per epoch, which a re-sighted landmark makes re-factor most of the tree.
+
+``time_s`` is the whole pass (preintegration, graph, updates, estimates and marginals read).
+"""
+
+from __future__ import annotations
+
+import time
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, L, V, X
+
+from nav.quaternion import dcm_to_q
+from slam.kinds.drone.filtering import DroneEstimate
+from slam.kinds.drone.reference import (
+    _prior_preintegrations,
+    _solve_isam,
+    _world_frame,
+    preintegration_params,
+)
+from slam.kinds.drone.simulate import DroneLog
+from slam.kinds.planar.world import ONLINE
+
+
+def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
+                 sensor_noise_scale: float = 1.0) -> DroneEstimate:
+    """The online row on ``log`` (module docstring), with the filters' assumed noise
+    scales."""
+    t0 = time.perf_counter()
+    E = log.n_epochs
+    p, v, bias = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 6))
+    Rs, S = np.empty((E, 3, 3)), np.empty((E, 6, 6))
+
+    def record(e: int, isam: gtsam.ISAM2) -> None:
+        pose = isam.calculateEstimatePose3(X(e))
+        Rs[e] = pose.rotation().matrix()
+        p[e] = pose.translation()
+        v[e] = isam.calculateEstimateVector(V(e))
+        bv = isam.calculateEstimateConstantBias(B(e)).vector()
+        bias[e, :3], bias[e, 3:] = bv[3:], bv[:3]
+        S[e] = isam.marginalCovariance(X(e))
+
+    params = preintegration_params(log, imu_noise_scale)
+    _, values, seen = _solve_isam(log, params, log.obs_cov * sensor_noise_scale, 1,
+                                  _prior_preintegrations(log, params), on_update=record)
+    ids = np.array(sorted(seen), dtype=np.int64)
+    lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
+    return DroneEstimate(ONLINE, p, v, dcm_to_q(Rs), bias, _world_frame(S, Rs), ids, lms,
+                         np.full((len(ids), 3, 3), np.nan), nis=np.zeros(0),
+                         nis_dof=np.zeros(0, int), time_s=time.perf_counter() - t0,
+                         steps=E - 1)
