@@ -4,8 +4,8 @@ Each path runs ``--repeats`` times on run 0 of a world, the paths interleaved, a
 median CPU seconds (``time.process_time``, one BLAS thread) of each and their ratio are
 printed as one JSON object, with the objective (½χ² of the final graph) of each path:
 
-- drone (:func:`drone_paths`): ``today`` = ``smooth_drone`` as the campaign calls it
-  (iSAM2 fed ``ISAM_BATCH`` epochs per update, each interval preintegrated about iSAM2's
+- drone (:func:`drone_paths`): ``today`` = ``smooth_drone`` as the campaign called it
+  before the keyframes default (iSAM2 fed ``ISAM_BATCH`` epochs per update, each interval preintegrated about iSAM2's
   current bias; LM; marginals); ``epochs_prior`` = the same schedule on the graph
   preintegrated once about the prior bias; ``keyframes`` = that graph solved by one LM
   from iSAM2's keyframe estimate; ``keyframes_chain`` = that with the marginals by the
@@ -67,7 +67,8 @@ def drone_paths(world_name: str, repeats: int) -> dict[str, Any]:
     fs = w.filters
     kw = {"imu_noise_scale": fs.imu_noise_scale, "sensor_noise_scale": fs.sensor_noise_scale}
     fast = {"schedule": "keyframes", "bias_point": "prior"}
-    variants = {"today": {}, "epochs_prior": {"bias_point": "prior"}, "keyframes": fast,
+    variants = {"today": {"schedule": "epochs", "bias_point": "estimate"},  # the old default
+                "epochs_prior": {"schedule": "epochs", "bias_point": "prior"}, "keyframes": fast,
                 "keyframes_chain": {**fast, "marginal_method": "chain"}}
     out: dict[str, Any] = {"world": world_name, "epochs": log.n_epochs,
                            "paths": _compare({k: (lambda v=v: ref.smooth_drone(log, **kw, **v))
