@@ -37,15 +37,21 @@ Update (``h`` reads rows up to ``r``).  The points along the columns after ``r``
 read rows at the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
 ``2(r + 1) + 1`` points, the innovation factor :math:`S_{zz}` is the dense step's, and
 :math:`P_{xz} = S_{:, \le r} G_z^\top` (:math:`G_z` the half-differences of the rule's
-factor :math:`C_z`).  With :math:`U = P_{xz} S_{zz}^{-\top}`:
+factor :math:`C_z`, zero after ``r``).  With :math:`W = G_z^\top S_{zz}^{-\top}`
+(``(r + 1) × nz``), :math:`K = S_{:, \le r} W S_{zz}^{-1}` and
+:math:`S^+ S^{+\top} = S S^\top - K P_{zz} K^\top = S\,\mathrm{diag}(I - WW^\top,\ I)\,S^\top`,
+so (Potter's square-root update, restricted to the columns up to ``r``)
 
 .. math::
 
-    \hat x^+ = \hat x \boxplus U S_{zz}^{-1}\nu,\qquad S^+ S^{+\top} = S S^\top - U U^\top,
+    \hat x^+ = \hat x \boxplus S_{:, \le r} W S_{zz}^{-1}\nu,\qquad
+    S^+ = [\,S_{:, \le r}\,\mathrm{chol}(I - WW^\top),\ S_{:, > r}\,],
 
-a rank-``nz`` downdate by a blocked hyperbolic sweep (:func:`downdate`), batched over
-leading axes.  A downdate that loses positive definiteness (or any other failure of a
-structured step) falls back to the dense step, counted in :data:`FALLBACKS` by reason.
+lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls.
+:math:`I - WW^\top = (I + G_z^\top M^{-1} G_z)^{-1}` (:math:`M = P_{zz} - G_zG_z^\top
+\succeq R`) is positive definite; a Cholesky factorisation that fails in floating point
+(or any other failure of a structured step) falls back to the dense step, counted in
+:data:`FALLBACKS` by reason.
 """
 
 from __future__ import annotations
@@ -56,6 +62,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from scipy.linalg import lapack
 
 from .finite import require_finite
 from .linalg import (
@@ -223,34 +230,44 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     zhat = zspace.mean(Z, wm)
     fz = rule.factor(zspace.local(zhat[..., None, :], Z))
     Gz, _ = _pairs(rule, fz.C, n)
-    Pxz = S[..., :, :a] @ swap(Gz[..., :, :a])
     nu = zspace.local(zhat, np.asarray(z, dtype=float))
     Szz = factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
     if not np.all(np.diagonal(Szz, axis1=-2, axis2=-1) > 0.0):
         raise NotPositiveDefiniteError("innovation covariance is singular")
-    U = swap(solve_lower(Szz, swap(Pxz)))
+    Wa = swap(solve_lower(Szz, Gz[..., :, :a]))
     w = solve_lower(Szz, nu)
     try:
-        post = downdate(S, U)
-    except (NotPositiveDefiniteError, np.linalg.LinAlgError) as exc:
+        La = _chol(np.eye(a) - Wa @ swap(Wa), 0)
+    except NotPositiveDefiniteError as exc:
         FALLBACKS[f"update: {exc}"] += 1
         return None
-    new = SqrtGaussian(space.retract(mean, matvec(U, w)), post, space)
+    Sa = S[..., :, :a]
+    post = np.array(S, dtype=float, copy=True)
+    post[..., :, :a] = Sa @ La
+    new = SqrtGaussian(space.retract(mean, matvec(Sa, matvec(Wa, w))), post, space)
     return new, Innovation(nu, Szz, nis_of(w))
 
 
 def rank_update(C: Array, V: Array) -> Array:
     r"""Lower factor of :math:`C C^\top + V V^\top` for a lower-triangular ``C`` (..., n, n)
-    and ``V`` (..., n, k): the Householder row sweep of :func:`chol_update_sweep`
-    (:math:`O(k n^2)`), member by member for a batch."""
+    and ``V`` (..., n, k): the Householder row sweep of :func:`chol_update_sweep` (LAPACK
+    ``dtpqrt``, :math:`O(k n^2)`), member by member for a batch (each member's rows, C
+    order, are its transpose's columns, Fortran order: no copies per member)."""
     if C.ndim == 2:
         return chol_update_sweep(C, V, 1.0)
-    out = np.empty(np.broadcast_shapes(C.shape, V.shape[:-1] + C.shape[-1:]))
-    Cb = np.broadcast_to(C, out.shape)
-    Vb = np.broadcast_to(V, out.shape[:-1] + V.shape[-1:])
-    for i in np.ndindex(out.shape[:-2]):
-        out[i] = chol_update_sweep(Cb[i], Vb[i], 1.0)
-    return out
+    lead = np.broadcast_shapes(C.shape[:-2], V.shape[:-2])
+    n, k = C.shape[-1], V.shape[-1]
+    L = np.array(np.broadcast_to(C, lead + (n, n)), dtype=float, order="C", copy=True)
+    X = np.array(np.broadcast_to(V, lead + (n, k)), dtype=float, order="C", copy=True)
+    L2, X2 = L.reshape(-1, n, n), X.reshape(-1, n, k)
+    nb = max(1, min(16, n))
+    for i in range(L2.shape[0]):
+        R, _, _, info = lapack.dtpqrt(0, nb, L2[i].T, X2[i].T, overwrite_a=1, overwrite_b=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"triangular-pentagonal QR failed (info {info})")
+        L2[i] = R.T
+    d = np.diagonal(L, axis1=-2, axis2=-1)
+    return L * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
 
 
 #: Rows per block of the batched downdate sweep.
@@ -259,20 +276,28 @@ BLOCK = 64
 
 def downdate(S: Array, V: Array, block: int = BLOCK) -> Array:
     r"""Lower factor of :math:`S S^\top - V V^\top` (``S`` (..., n, n) lower triangular with
-    a positive diagonal, ``V`` (..., n, k)) by the blocked hyperbolic sweep of
-    :func:`~estimators.linalg.chol_update_sweep`, vectorised over leading axes: for a block
-    ``J`` of rows and the trailing rows ``T``, :math:`A = S_{JJ}^{-1} V_J`,
-    :math:`\Lambda = \mathrm{chol}(I - AA^\top)`, :math:`R = \mathrm{chol}(I - A^\top A)`,
+    a positive diagonal, ``V`` (..., n, k)): :func:`blocked_sweep` with ``sign = -1``
+    (unbatched: :func:`~estimators.linalg.chol_update_sweep`)."""
+    if S.ndim == 2:
+        return chol_update_sweep(S, V, -1.0, block)
+    return blocked_sweep(S, V, -1.0, block)
+
+
+def blocked_sweep(S: Array, V: Array, sign: float, block: int = BLOCK) -> Array:
+    r"""Lower factor of :math:`S S^\top + s\,V V^\top` (:math:`s = \pm 1`) by the blocked
+    sweep of :func:`~estimators.linalg.chol_update_sweep`, vectorised over leading axes:
+    for a block ``J`` of rows and the trailing rows ``T``, :math:`A = S_{JJ}^{-1} V_J`,
+    :math:`\Lambda = \mathrm{chol}(I + sAA^\top)`, :math:`R = \mathrm{chol}(I + sA^\top A)`,
 
     .. math::
 
-        S'_{JJ} = S_{JJ}\Lambda,\quad S'_{TJ} = (S_{TJ} - V_T A^\top)\Lambda^{-\top},\quad
-        V'_T = V_T R - S'_{TJ}\Lambda^\top A R^{-\top} .
+        S'_{JJ} = S_{JJ}\Lambda,\quad S'_{TJ} = (S_{TJ} + sV_T A^\top)\Lambda^{-\top},\quad
+        V'_T = V_T R - S'_{TJ}\Lambda^\top A R^{-\top}
 
-    Raises :class:`NotPositiveDefiniteError` when the result is not positive definite (or
-    a diagonal block of ``S`` is singular)."""
-    if S.ndim == 2:
-        return chol_update_sweep(S, V, -1.0, block)
+    (for :math:`s = 1` an orthogonal, for :math:`s = -1` a J-orthogonal map of
+    :math:`[S_{JJ}, V_J]` to :math:`[S'_{JJ}, 0]`).  Raises :class:`NotPositiveDefiniteError`
+    when a downdate's result is not positive definite or a diagonal block of ``S`` is
+    singular."""
     n, k = S.shape[-1], V.shape[-1]
     L = np.array(S, dtype=float, copy=True)
     X = np.array(np.broadcast_to(V, S.shape[:-1] + (k,)), dtype=float, copy=True)
@@ -281,12 +306,12 @@ def downdate(S: Array, V: Array, block: int = BLOCK) -> Array:
         e = min(j + block, n)
         Ljj = L[..., j:e, j:e]
         A = solve_lower(Ljj, X[..., j:e, :])
-        Lam = _chol(np.eye(e - j) - A @ swap(A), j)
-        R = _chol(eye_k - swap(A) @ A, j)
+        Lam = _chol(np.eye(e - j) + sign * (A @ swap(A)), j)
+        R = _chol(eye_k + sign * (swap(A) @ A), j)
         L[..., j:e, j:e] = Ljj @ Lam
         if e < n:
             XT = X[..., e:, :]
-            Lt = swap(solve_lower(Lam, swap(L[..., e:, j:e] - XT @ swap(A))))
+            Lt = swap(solve_lower(Lam, swap(L[..., e:, j:e] + sign * (XT @ swap(A)))))
             Gam = swap(solve_lower(R, swap(swap(Lam) @ A)))
             X[..., e:, :] = XT @ R - Lt @ Gam
             L[..., e:, j:e] = Lt
