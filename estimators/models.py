@@ -212,7 +212,7 @@ def _check_model(what: str, fn: Any, noise: Any, jacobian: Any) -> None:
 
 @dataclass(frozen=True)
 class Transition:
-    """Motion model.
+    r"""Motion model.
 
     Attributes
     ----------
@@ -229,11 +229,12 @@ class Transition:
         ``jacobian(x, u) -> F`` (additive) or ``-> (F, G)`` (non-additive), in tangent
         coordinates; used by the EKF, which otherwise differentiates numerically.
     moves : int or None
-        A declaration: ``f`` may change only the first ``moves`` coordinates (ambient and
-        tangent alike) and copies every later one, on which no noise acts (a static tail,
-        e.g. a SLAM map).  The square-root sigma-point prediction then takes a structured
-        step (:mod:`estimators.structured`); ``None`` (the default): no declaration, the
-        dense step.
+        A declaration: ``f`` computes the first ``moves`` coordinates (ambient and tangent
+        alike) from those coordinates and the noise alone, and copies every later one, on
+        which no noise acts (a static tail, e.g. a SLAM map: :math:`F = \mathrm{diag}(F_v,
+        I)`, :math:`G = [G_v; 0]`).  The square-root sigma-point prediction and the EKF's
+        then take structured steps (:mod:`estimators.structured`); ``None`` (the default):
+        no declaration, the dense steps.
     """
 
     f: Callable[..., Array]
@@ -256,8 +257,9 @@ class Measurement:
 
     ``space`` defaults to :math:`\\mathbb{R}^{nz}`; ``jacobian(x) -> H`` (nz, d) optional.
     ``reads`` (a declaration, optional): the state coordinates ``h`` depends on (ambient and
-    tangent alike); the square-root sigma-point update then takes a structured step
-    (:mod:`estimators.structured`).  ``None``: no declaration, the dense step.
+    tangent alike; its Jacobian is zero elsewhere); the square-root sigma-point update and
+    the EKF's then take structured steps (:mod:`estimators.structured`).  ``None``: no
+    declaration, the dense steps.
     """
 
     h: Callable[[Array], Array]

@@ -81,7 +81,8 @@ from .rules import CentralDifference, Cubature, Factor, Unscented
 from .sigma_points import factorise
 from .spaces import Euclidean, Space, Wrapped
 
-__all__ = ["FALLBACKS", "dense_steps", "downdate", "predict", "rank_update", "update"]
+__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "downdate", "enabled", "predict",
+           "rank_update", "static_tail_cov", "update"]
 
 #: Structured steps that fell back to the dense step, by reason.
 FALLBACKS: Counter[str] = Counter()
@@ -103,7 +104,27 @@ def dense_steps() -> Iterator[None]:
         _STATE["enabled"] = before
 
 
-def _coordinatewise(space: Space) -> bool:
+def enabled() -> bool:
+    """False within :func:`dense_steps`."""
+    return _STATE["enabled"]
+
+
+def static_tail_cov(P: Array, F: Array, G: Array, Qw: Array, h: int) -> Array:
+    r"""The EKF's predicted covariance :math:`FPF^\top + GQ_wG^\top` for
+    :math:`F = \mathrm{diag}(F_v, I)`, :math:`G = [G_v; 0]` (``F_v`` the first ``h`` rows
+    and columns): only the first ``h`` rows and columns change (batched over leading axes)."""
+    Fv, Gv = F[..., :h, :h], G[..., :h, :]
+    out = np.array(P, dtype=float, copy=True)
+    top = Fv @ P[..., :h, :]
+    vv = top[..., :, :h] @ swap(Fv) + Gv @ Qw @ swap(Gv)
+    out[..., :h, :h] = 0.5 * (vv + swap(vv))
+    out[..., :h, h:] = top[..., :, h:]
+    out[..., h:, :h] = swap(top[..., :, h:])
+    return out
+
+
+def coordinatewise(space: Space) -> bool:
+    """``Euclidean`` or ``Wrapped``: every coordinate moves on its own."""
     return type(space) in (Euclidean, Wrapped)
 
 
@@ -210,7 +231,7 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     unscented rule with a negative centre weight: the dense step's posterior is then a
     factor and a downdate, which can fail where :math:`SS^\top - UU^\top` does not, and
     the two must fail alike."""
-    if not _applies(rule) or model.reads is None or not _coordinatewise(belief.space):
+    if not _applies(rule) or model.reads is None or not coordinatewise(belief.space):
         return None
     n = belief.dim
     a = max(model.reads) + 1

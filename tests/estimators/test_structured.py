@@ -197,3 +197,38 @@ def test_a_wrong_declaration_is_refused():
         Transition(_f, _motion().noise, additive=False, moves=0)
     with pytest.raises(ValueError, match="reads"):
         Measurement(lambda X: X[..., :1], Noise.from_sigmas([1.0]), reads=(-1,))
+
+
+@pytest.mark.parametrize("batch", [None, 3])
+def test_ekf_steps_equal_dense(batch):
+    """The EKF with the planar car model's declared static tail and the range-bearing
+    model's declared rows: the dense (Joseph-form) steps' values to 1e-9 relative."""
+    from estimators.ekf import ekf_predict, ekf_update
+    from estimators.models import Gaussian
+    from slam.kinds.planar.models import motion_model, observation_model
+
+    rng = np.random.default_rng(8)
+    sb = _belief(41, batch, rng)
+    b = Gaussian(sb.mean, sb.cov, sb.space)
+    model = motion_model(0.025, 4.0, np.diag([0.09, 0.003]), 8)
+    assert model.moves == 3
+    u = np.broadcast_to([3.0, 0.1], (() if batch is None else (batch,)) + (8, 2))
+    pred, pref = _both(ekf_predict, b, model, u)
+    assert _rel(pred.cov, pref.cov) < 1e-9 and _rel(pred.mean, pref.mean) < 1e-9
+    obs = observation_model(np.array([3, 10, 17]), np.diag([0.01, 3e-4]))
+    z = obs.h(pred.mean[..., None, :])[..., 0, :] + 0.03
+    (post, inn), (dref, dinn) = _both(ekf_update, pred, obs, z)
+    assert _rel(post.cov, dref.cov) < 1e-9 and _rel(post.mean, dref.mean) < 1e-9
+    assert _rel(np.asarray(inn.nis), np.asarray(dinn.nis)) < 1e-9
+    assert np.array_equal(post.cov, np.swapaxes(post.cov, -1, -2))
+
+
+def test_invariant_variants_drop_the_declarations():
+    from slam.kinds.planar.models import motion_model, observation_model
+    from slam.kinds.planar.variants import invariant_motion, invariant_observation
+
+    m = motion_model(0.025, 4.0, np.diag([0.09, 0.003]), 2)
+    o = observation_model(np.array([0, 2]), np.diag([0.01, 3e-4]))
+    assert m.moves == 3 and o.reads == (0, 1, 2, 3, 4, 7, 8)
+    assert invariant_motion(m, "right").moves is None
+    assert invariant_observation(o, "right").reads is None
