@@ -199,8 +199,12 @@ class Wrapped(_Flat):
 
     def _wrap(self, v: Array) -> Array:
         out = np.array(v, dtype=float, copy=True)
-        for i in self.angles:
+        if len(self.angles) == 1:
+            i = self.angles[0]
             out[..., i] = wrap_angle(out[..., i])
+        elif self.angles:  # all at once (elementwise: the same numbers as one by one)
+            idx = list(self.angles)
+            out[..., idx] = wrap_angle(out[..., idx])
         return out
 
     def retract(self, x: Array, delta: Array) -> Array:
