@@ -79,20 +79,25 @@ def measure(world_name: str, runs: int, filters: list[str], reps: int) -> dict:
     cpu = {f"{'batched' if b else 'per-run'}/{'dense' if d else 'structured'}": 0.0
            for b, d in ways}
     worst: dict[str, float] = {}
+    per_filter: dict[str, dict[str, float]] = {}
     FALLBACKS.clear()
     for name in filters:
         results = {}
+        mine = per_filter.setdefault(name, dict.fromkeys(cpu, 0.0))
         for rep in range(reps):
             for b, d in (ways if rep % 2 == 0 else ways[::-1]):
                 key = f"{'batched' if b else 'per-run'}/{'dense' if d else 'structured'}"
                 seconds, results[key] = _run(world, logs, name, b, d)
                 cpu[key] += seconds / reps
+                mine[key] += seconds / reps
         ref = results["per-run/dense"]
         worst[name] = max(_worst(results[k], ref) for k in results if k != "per-run/dense")
     base = cpu["per-run/dense"]
     return {"world": world_name, "runs": runs, "filters": filters, "reps": reps,
             "cpu_s": {k: round(v, 3) for k, v in cpu.items()},
             "ratio_over_per_run_dense": {k: round(base / v, 3) for k, v in cpu.items()},
+            "per_filter_cpu_s": {f: {k: round(v, 3) for k, v in c.items()} for f, c in
+                                 per_filter.items()},
             "worst_relative_difference": worst, "fallbacks": dict(FALLBACKS)}
 
 
