@@ -81,7 +81,7 @@ from .rules import CentralDifference, Cubature, Factor, Unscented
 from .sigma_points import factorise
 from .spaces import Euclidean, Space, Wrapped
 
-__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "downdate", "enabled", "predict",
+__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "predict",
            "rank_update", "static_tail_cov", "update"]
 
 #: Structured steps that fell back to the dense step, by reason.
@@ -226,7 +226,7 @@ def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
 def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
            ) -> tuple[SqrtGaussian, Innovation] | None:
     """The structured update (module docstring), or ``None`` when it does not apply or its
-    downdate failed (counted): the caller then takes the dense step.  An innovation
+    Potter factor failed (counted): the caller then takes the dense step.  An innovation
     covariance that is not positive definite raises as the dense step does.  Not for an
     unscented rule with a negative centre weight: the dense step's posterior is then a
     factor and a downdate, which can fail where :math:`SS^\top - UU^\top` does not, and
@@ -258,7 +258,7 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     Wa = swap(solve_lower(Szz, Gz[..., :, :a]))
     w = solve_lower(Szz, nu)
     try:
-        La = _chol(np.eye(a) - Wa @ swap(Wa), 0)
+        La = _chol(np.eye(a) - Wa @ swap(Wa))
     except NotPositiveDefiniteError as exc:
         FALLBACKS[f"update: {exc}"] += 1
         return None
@@ -291,57 +291,10 @@ def rank_update(C: Array, V: Array) -> Array:
     return L * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
 
 
-#: Rows per block of the batched downdate sweep.
-BLOCK = 64
-
-
-def downdate(S: Array, V: Array, block: int = BLOCK) -> Array:
-    r"""Lower factor of :math:`S S^\top - V V^\top` (``S`` (..., n, n) lower triangular with
-    a positive diagonal, ``V`` (..., n, k)): :func:`blocked_sweep` with ``sign = -1``
-    (unbatched: :func:`~estimators.linalg.chol_update_sweep`)."""
-    if S.ndim == 2:
-        return chol_update_sweep(S, V, -1.0, block)
-    return blocked_sweep(S, V, -1.0, block)
-
-
-def blocked_sweep(S: Array, V: Array, sign: float, block: int = BLOCK) -> Array:
-    r"""Lower factor of :math:`S S^\top + s\,V V^\top` (:math:`s = \pm 1`) by the blocked
-    sweep of :func:`~estimators.linalg.chol_update_sweep`, vectorised over leading axes:
-    for a block ``J`` of rows and the trailing rows ``T``, :math:`A = S_{JJ}^{-1} V_J`,
-    :math:`\Lambda = \mathrm{chol}(I + sAA^\top)`, :math:`R = \mathrm{chol}(I + sA^\top A)`,
-
-    .. math::
-
-        S'_{JJ} = S_{JJ}\Lambda,\quad S'_{TJ} = (S_{TJ} + sV_T A^\top)\Lambda^{-\top},\quad
-        V'_T = V_T R - S'_{TJ}\Lambda^\top A R^{-\top}
-
-    (for :math:`s = 1` an orthogonal, for :math:`s = -1` a J-orthogonal map of
-    :math:`[S_{JJ}, V_J]` to :math:`[S'_{JJ}, 0]`).  Raises :class:`NotPositiveDefiniteError`
-    when a downdate's result is not positive definite or a diagonal block of ``S`` is
-    singular."""
-    n, k = S.shape[-1], V.shape[-1]
-    L = np.array(S, dtype=float, copy=True)
-    X = np.array(np.broadcast_to(V, S.shape[:-1] + (k,)), dtype=float, copy=True)
-    eye_k = np.eye(k)
-    for j in range(0, n, block):
-        e = min(j + block, n)
-        Ljj = L[..., j:e, j:e]
-        A = solve_lower(Ljj, X[..., j:e, :])
-        Lam = _chol(np.eye(e - j) + sign * (A @ swap(A)), j)
-        R = _chol(eye_k + sign * (swap(A) @ A), j)
-        L[..., j:e, j:e] = Ljj @ Lam
-        if e < n:
-            XT = X[..., e:, :]
-            Lt = swap(solve_lower(Lam, swap(L[..., e:, j:e] + sign * (XT @ swap(A)))))
-            Gam = swap(solve_lower(R, swap(swap(Lam) @ A)))
-            X[..., e:, :] = XT @ R - Lt @ Gam
-            L[..., e:, j:e] = Lt
-    return L
-
-
-def _chol(M: Array, row: int) -> Array:
+def _chol(M: Array) -> Array:
     try:
         return np.linalg.cholesky(M)
     except np.linalg.LinAlgError:
         raise NotPositiveDefiniteError(
-            f"Cholesky downdate lost positive definiteness in the block at row {row}") from None
+            "I - W Wᵀ of the Potter update is not positive definite in floating point"
+        ) from None
