@@ -33,8 +33,11 @@ a rank-``h`` update of ``C`` (:math:`O(h n^2)`, never a downdate; an unscented n
 centre weight is then one rank-one downdate of the whole factor, as in the dense step).
 The tail's mean is unchanged.
 
-Update (``h`` reads rows up to ``r``).  The points along the columns after ``r`` leave the
-read rows at the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
+Update (``h`` reads rows up to ``r``; a coordinate-wise space, or one whose retraction keeps
+the first ``r + 1`` coordinates when ξ is zero on its first ``r + 1`` rows, declared by a
+``prefix_rows`` attribute: :class:`~estimators.slam_group.SlamGroup`, so the invariant
+filters' updates too).  The points along the columns after ``r`` leave the read rows at
+the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
 ``2(r + 1) + 1`` points, the innovation factor :math:`S_{zz}` is the dense step's, and
 :math:`P_{xz} = S_{:, \le r} G_z^\top` (:math:`G_z` the half-differences of the rule's
 factor :math:`C_z`, zero after ``r``).  With :math:`W = G_z^\top S_{zz}^{-\top}`
@@ -231,11 +234,14 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     unscented rule with a negative centre weight: the dense step's posterior is then a
     factor and a downdate, which can fail where :math:`SS^\top - UU^\top` does not, and
     the two must fail alike."""
-    if not _applies(rule) or model.reads is None or not coordinatewise(belief.space):
+    if not _applies(rule) or model.reads is None:
         return None
     n = belief.dim
     a = max(model.reads) + 1
     if a > n or (isinstance(rule, Unscented) and rule.weights_c(n)[0] < 0.0):
+        return None
+    prefix = getattr(belief.space, "prefix_rows", None)  # e.g. SlamGroup's
+    if not (coordinatewise(belief.space) or (prefix is not None and a >= prefix)):
         return None
     S, mean, space = belief.sqrt, belief.mean, belief.space
     xi, wm = rule.points(n)

@@ -178,7 +178,6 @@ def test_undeclared_or_unsupported_take_the_dense_step():
     assert structured.predict(hm, b, _motion(), None) is None
     group = SqrtGaussian(np.r_[b.mean[:3], b.mean[3:]], b.sqrt, SlamGroup(5))
     assert structured.predict(Cubature(), group, _motion(), None) is None
-    assert structured.update(Cubature(), group, _observation([1]), np.zeros(2)) is None
     with dense_steps():
         assert structured.predict(Cubature(), b, _motion(), None) is None
 
@@ -223,7 +222,9 @@ def test_ekf_steps_equal_dense(batch):
     assert np.array_equal(post.cov, np.swapaxes(post.cov, -1, -2))
 
 
-def test_invariant_variants_drop_the_declarations():
+def test_invariant_variants_keep_only_what_holds():
+    """The group error couples the pose and the map in the motion (no static tail), but
+    ``h`` still reads the same ambient rows (``SlamGroup.prefix_rows``)."""
     from slam.kinds.planar.models import motion_model, observation_model
     from slam.kinds.planar.variants import invariant_motion, invariant_observation
 
@@ -231,4 +232,18 @@ def test_invariant_variants_drop_the_declarations():
     o = observation_model(np.array([0, 2]), np.diag([0.01, 3e-4]))
     assert m.moves == 3 and o.reads == (0, 1, 2, 3, 4, 7, 8)
     assert invariant_motion(m, "right").moves is None
-    assert invariant_observation(o, "right").reads is None
+    assert invariant_observation(o, "right").reads == o.reads
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+@pytest.mark.parametrize("batch", [None, 2])
+def test_update_on_the_slam_group_equals_dense(side, batch):
+    rng = np.random.default_rng(12)
+    b = _belief(23, batch, rng)
+    b = SqrtGaussian(b.mean, b.sqrt, SlamGroup(10, side))
+    model = _observation([2, 5])
+    z = model.h(b.mean[..., None, :])[..., 0, :] + 0.02
+    (out, inn), (ref, rinn) = _both(sigma_update, Cubature(), "sqrt", b, model, z)
+    assert _rel(out.mean, ref.mean) < 1e-9 and _rel(out.sqrt, ref.sqrt) < 1e-9
+    assert _rel(np.asarray(inn.nis), np.asarray(rinn.nis)) < 1e-9
+    assert _lower_positive(out.sqrt)

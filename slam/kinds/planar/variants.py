@@ -145,7 +145,7 @@ def invariant_observation(model: Measurement, side: str) -> Measurement:
         return invariant_h(SlamGroup(_n_landmarks(x), side), x,  # type: ignore[arg-type]
                            base(x))
 
-    return replace(model, jacobian=jacobian, reads=None)  # the group error couples rows
+    return replace(model, jacobian=jacobian)
 
 
 class FirstEstimates:

@@ -12,7 +12,7 @@ from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import run_slam_batch
 from tests.small_worlds import small_world
 
-FILTERS = ("ekf", "srckf", "srukf", "srcdkf", "ekf-fej")
+FILTERS = ("ekf", "srckf", "srukf", "srcdkf", "ekf-fej", "srckf-inv", "ekf-inv")
 SETTINGS = {"srukf": {"alpha": 1.0, "beta": 0.0, "kappa": "3-n"}, "srcdkf": {"h": 3.0 ** 0.5}}
 
 
