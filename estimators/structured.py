@@ -55,6 +55,13 @@ lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls
 \succeq R`) is positive definite; a Cholesky factorisation that fails in floating point
 (or any other failure of a structured step) falls back to the dense step, counted in
 :data:`FALLBACKS` by reason.
+
+Not covered (the dense steps run): the prediction on a group error
+(:class:`~estimators.slam_group.SlamGroup`: the map's deviations of the points along the
+map's columns pass through a common heading-dependent map, so ``C`` would need
+re-triangularising), the update of an unscented rule with a negative centre weight (see
+:func:`update`), the HoMM rules, additive noise, and the dense and SVD forms.  The EKF's
+structured covariance steps are :func:`static_tail_cov` and :func:`estimators.ekf.ekf_update`.
 """
 
 from __future__ import annotations
