@@ -9,6 +9,11 @@ does, and the ratio comes from runs made back to back.  The two summaries are al
 of their MSE: ``tests.golden.regenerate.batched_differences``; the number of differing keys is
 reported).
 
+``--old-per-run``: the per-run executor with the dense sigma-point steps
+(:func:`estimators.structured.dense_steps`), i.e. the per-run path before the structured
+steps, against the batched executor with them (the summaries then agree to round-off, not
+bit for bit).
+
 Defaults (the issue's campaigns): ``bailey`` 50 runs (its 4 filters + smoother), ``webmap``
 100 runs (ekf, srckf, srckf-inv), ``drone`` 25 runs, ``star-sensor`` 50 runs.  Worlds or run
 counts can be narrowed, e.g. ``--worlds bailey --runs 20``.
@@ -21,6 +26,7 @@ import json
 import platform
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 from estimators.threads import single_thread_blas
@@ -41,17 +47,20 @@ CASES = {
 }
 
 
-def _campaign(case: Case, runs: int, executor: str) -> tuple[float, dict]:
+def _campaign(case: Case, runs: int, executor: str, dense: bool = False) -> tuple[float, dict]:
+    from estimators.structured import dense_steps
     from slam.campaign import run_campaign
     from slam.registry import load_world
 
     world = load_world(case.world)
-    t0 = time.process_time()
-    result = run_campaign(world, runs=runs, filters=case.filters, workers=1, executor=executor)
-    return time.process_time() - t0, result.summary
+    with dense_steps() if dense else nullcontext():
+        t0 = time.process_time()
+        result = run_campaign(world, runs=runs, filters=case.filters, workers=1,
+                              executor=executor)
+        return time.process_time() - t0, result.summary
 
 
-def measure(case: Case, runs: int, reps: int) -> dict:
+def measure(case: Case, runs: int, reps: int, old_per_run: bool = False) -> dict:
     """Both paths ``reps`` times, alternating; CPU seconds, ratios and the summary check."""
     from tests.golden.regenerate import batched_differences, strip_timings
 
@@ -60,12 +69,13 @@ def measure(case: Case, runs: int, reps: int) -> dict:
     for rep in range(reps):
         order = ("per-run", "batched") if rep % 2 == 0 else ("batched", "per-run")
         for ex in order:
-            seconds, summary = _campaign(case, runs, ex)
+            seconds, summary = _campaign(case, runs, ex, old_per_run and ex == "per-run")
             times[ex].append(seconds)
             summaries[ex] = strip_timings(summary)
     diff = batched_differences(summaries["per-run"], summaries["batched"])
     ratios = [a / b for a, b in zip(times["per-run"], times["batched"])]
     return {"world": case.world, "runs": runs, "filters": case.filters,
+            "per_run_steps": "dense" if old_per_run else "structured",
             "cpu_s": times, "ratio_per_run_over_batched": ratios,
             "summary_differences": len(diff), "first_differences": diff[:5]}
 
@@ -76,12 +86,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--worlds", default=",".join(CASES), help="comma-separated cases")
     p.add_argument("--runs", type=int, help="runs of every case (default: the case's)")
     p.add_argument("--reps", type=int, default=1, help="alternating repetitions")
+    p.add_argument("--old-per-run", action="store_true",
+                   help="the per-run executor with the dense sigma-point steps")
     args = p.parse_args(argv)
     out = {"python": platform.python_version(), "machine": platform.machine(), "cases": []}
     with single_thread_blas():
         for name in args.worlds.split(","):
             case = CASES[name]
-            out["cases"].append(measure(case, args.runs or case.runs, args.reps))
+            out["cases"].append(measure(case, args.runs or case.runs, args.reps,
+                                        args.old_per_run))
             print(json.dumps(out["cases"][-1]), file=sys.stderr)
     json.dump(out, sys.stdout, indent=2)
     print()

@@ -13,6 +13,14 @@ spaces (:func:`estimators.linearise.numerical_jacobian`):
     \hat x^+ = \hat x \boxplus K(z \boxminus h(\hat x)),\quad
     P^+ = (I - KH) P (I - KH)^\top + K R K^\top \ \text{(Joseph form)}.
 
+With a declared static tail (``Transition.moves``: :math:`F = \mathrm{diag}(F_v, I)`) the
+prediction touches only the moved rows and columns of :math:`P`
+(:func:`~estimators.structured.static_tail_cov`); with declared rows read
+(``Measurement.reads``) the update uses those columns of :math:`H` only and the Joseph
+form's value for the optimal gain, :math:`P - K (PH^\top)^\top`: both :math:`O(n^2)`
+instead of :math:`O(n^3)`, equal to round-off (on coordinate-wise spaces only: a group
+error, e.g. :class:`~estimators.slam_group.SlamGroup`, couples the rows).
+
 The Jacobian selection (the model's analytic Jacobian if it has one, else
 :func:`numerical_jacobian`) is :func:`linearise_transition` /
 :func:`linearise_measurement`, shared with the EKF's block-local steps
@@ -33,6 +41,7 @@ from .models import Belief, Gaussian, Innovation, Measurement, SqrtGaussian, Tra
 from .partitioned import BlockLayout, EkfBlockSteps
 from .sigma_points import psd_factor
 from .spaces import Space
+from .structured import coordinatewise, enabled, static_tail_cov
 
 
 def ekf_predict(belief: Gaussian, model: Transition, u: Any = None, eps: float = 1e-6
@@ -41,6 +50,9 @@ def ekf_predict(belief: Gaussian, model: Transition, u: Any = None, eps: float =
     m, P = belief.mean, belief.cov
     space = model.space or belief.space
     F, G, y = linearise_transition(model, m, u, belief.space, space, eps)
+    if (model.moves is not None and model.space is None and G is not None and enabled()
+            and coordinatewise(belief.space)):
+        return Gaussian(y, static_tail_cov(P, F, G, model.noise.cov, model.moves), space)
     if G is None:
         Pn = F @ P @ swap(F) + model.noise.cov
     else:
@@ -55,12 +67,21 @@ def ekf_update(belief: Gaussian, model: Measurement, z: Array, eps: float = 1e-6
     m, P = belief.mean, belief.cov
     H, zhat = linearise_measurement(model, m, belief.space, eps)
     nu = model.space.local(zhat, np.asarray(z, dtype=float))
-    PHt = P @ swap(H)
-    Pzz = H @ PHt + model.noise.cov
+    declared = model.reads is not None and enabled() and coordinatewise(belief.space)
+    rows = np.asarray(model.reads) if declared else None
+    if rows is None:
+        PHt = P @ swap(H)
+        Pzz = H @ PHt + model.noise.cov
+    else:  # declared: H is zero outside the rows read
+        PHt = P[..., :, rows] @ swap(H[..., :, rows])
+        Pzz = H[..., :, rows] @ PHt[..., rows, :] + model.noise.cov
     Szz = chol(0.5 * (Pzz + swap(Pzz)))
     K = kalman_gain(PHt, Szz)
-    A = np.eye(belief.dim) - K @ H
-    Pn = A @ P @ swap(A) + K @ model.noise.cov @ swap(K)
+    if rows is None:
+        A = np.eye(belief.dim) - K @ H
+        Pn = A @ P @ swap(A) + K @ model.noise.cov @ swap(K)
+    else:  # the Joseph form's value for the optimal gain, O(n² nz)
+        Pn = P - K @ swap(PHt)
     w = np.linalg.solve(Szz, nu) if nu.ndim == 1 else np.linalg.solve(Szz, nu[..., None])[..., 0]
     post = Gaussian(belief.space.retract(m, matvec(K, nu)), 0.5 * (Pn + swap(Pn)), belief.space)
     return post, Innovation(nu, Szz, nis_of(w))

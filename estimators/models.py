@@ -212,7 +212,7 @@ def _check_model(what: str, fn: Any, noise: Any, jacobian: Any) -> None:
 
 @dataclass(frozen=True)
 class Transition:
-    """Motion model.
+    r"""Motion model.
 
     Attributes
     ----------
@@ -228,6 +228,13 @@ class Transition:
     jacobian : callable or None
         ``jacobian(x, u) -> F`` (additive) or ``-> (F, G)`` (non-additive), in tangent
         coordinates; used by the EKF, which otherwise differentiates numerically.
+    moves : int or None
+        A declaration: ``f`` computes the first ``moves`` coordinates (ambient and tangent
+        alike) from those coordinates and the noise alone, and copies every later one, on
+        which no noise acts (a static tail, e.g. a SLAM map: :math:`F = \mathrm{diag}(F_v,
+        I)`, :math:`G = [G_v; 0]`).  The square-root sigma-point prediction and the EKF's
+        then take structured steps (:mod:`estimators.structured`); ``None`` (the default):
+        no declaration, the dense steps.
     """
 
     f: Callable[..., Array]
@@ -235,9 +242,13 @@ class Transition:
     additive: bool = True
     space: Space | None = None
     jacobian: Callable[..., Any] | None = None
+    moves: int | None = None
 
     def __post_init__(self) -> None:
         _check_model("transition", self.f, self.noise, self.jacobian)
+        if self.moves is not None and not (isinstance(self.moves, int) and self.moves >= 1):
+            raise ValueError(f"transition moves must be a positive int or None, "
+                             f"got {self.moves!r}")
 
 
 @dataclass(frozen=True)
@@ -245,15 +256,26 @@ class Measurement:
     """Measurement model ``z = h(x) ⊞ v``, ``v ~ N(0, noise.cov)``.
 
     ``space`` defaults to :math:`\\mathbb{R}^{nz}`; ``jacobian(x) -> H`` (nz, d) optional.
+    ``reads`` (a declaration, optional): the state coordinates ``h`` depends on (ambient and
+    tangent alike; its Jacobian is zero elsewhere); the square-root sigma-point update and
+    the EKF's then take structured steps (:mod:`estimators.structured`).  ``None``: no
+    declaration, the dense steps.
     """
 
     h: Callable[[Array], Array]
     noise: Noise
     space: Space = field(default=None)  # type: ignore[assignment]
     jacobian: Callable[[Array], Array] | None = None
+    reads: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         _check_model("measurement", self.h, self.noise, self.jacobian)
+        if self.reads is not None:
+            rows = tuple(int(r) for r in self.reads)
+            if not rows or min(rows) < 0:
+                raise ValueError(f"measurement reads must be non-empty rows >= 0, "
+                                 f"got {self.reads!r}")
+            object.__setattr__(self, "reads", rows)
         if self.space is None:
             object.__setattr__(self, "space", Euclidean(self.noise.dim))
         elif self.space.dim != self.noise.dim:

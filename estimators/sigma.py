@@ -28,6 +28,11 @@ Update (eqs. 43-51), with points redrawn from the predicted belief:
 Non-additive noise (``Transition.additive = False``) is handled by drawing points
 over the state augmented with the noise input.  A transition with its own
 ``space`` changes the state's dimension (used for SLAM landmark augmentation).
+
+A model that declares a static tail (``Transition.moves``) or the rows it reads
+(``Measurement.reads``) gets the structured square-root steps of
+:mod:`estimators.structured` (equal to these to round-off); without a declaration, or
+where a structured step does not apply, the dense steps above are taken.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from . import structured
 from .finite import require_finite, require_finite_input
 from .homm import HighOrderMoment, carry_update, drawn_rule, predicted_belief
 from .linalg import (
@@ -74,6 +80,10 @@ def sigma_predict(rule: PointRule, form: Form, belief: Belief, model: Transition
                   u: Any = None, method: SqrtMethod = "cholesky") -> Belief:
     """Time update: propagate sigma points through ``model.f``."""
     require_finite_input(u)
+    if form == "sqrt" and model.moves is not None:  # a declared static tail
+        out = structured.predict(rule, belief, model, u)
+        if out is not None:
+            return out
     r = drawn_rule(rule, belief, 0 if model.additive else model.noise.dim)  # HoMM moments
     if model.additive:
         X, _, _, wm = draw(r, belief, None, method)
@@ -95,6 +105,10 @@ def sigma_update(rule: PointRule, form: Form, belief: Belief, model: Measurement
     """Measurement update with points redrawn from ``belief`` (a batch of beliefs when its
     mean has leading axes; ``z`` then (..., nz))."""
     require_finite("measurement", z)
+    if form == "sqrt" and model.reads is not None:  # declared rows read
+        done = structured.update(rule, belief, model, z)
+        if done is not None:
+            return done
     rule = drawn_rule(rule, belief)  # HoMM: the predicted moments
     X, _, dX, wm = draw(rule, belief, None, method)
     Z = model.h(X)

@@ -239,6 +239,14 @@ class SlamGroup(WorldChartGroup):
         return out
 
     @property
+    def prefix_rows(self) -> int:
+        r"""A declaration for :mod:`estimators.structured`: for every ``r >= 3`` the first
+        ``r`` ambient coordinates of :math:`x \boxplus ξ` depend only on the first ``r``
+        tangent rows of ξ (a landmark moves with its own ξ and the heading's, row 2; the
+        position with ξ_x, ξ_y, ξ_φ), and ξ zero there leaves them exactly as they are."""
+        return 3
+
+    @property
     def transport_lead(self) -> int | None:
         r"""Right error: :math:`T = I + Δa\,e_φ^\top` adds multiples of the heading row to
         the position rows (in a lower factor, columns 0-2 only); left error (``None``):

@@ -42,7 +42,8 @@ def observation_space(k: int) -> Wrapped:
 
 def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int = 1
                  ) -> Transition:
-    r"""Joint-state transition over ``n_steps`` control steps; landmarks stay.
+    r"""Joint-state transition over ``n_steps`` control steps; landmarks stay (declared:
+    ``moves = 3``, the pose; the observation model declares the rows it ``reads``).
 
     ``u`` is the (n_steps, 2) block of noisy controls; the noise ``W`` (m, 2·n_steps)
     holds an independent control error per step, so sigma-point filters propagate
@@ -105,7 +106,7 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
         return Fm, Gm
 
     cov = np.kron(np.eye(n_steps), control_cov)
-    return Transition(f, Noise.from_cov(cov), additive=False, jacobian=jacobian)
+    return Transition(f, Noise.from_cov(cov), additive=False, jacobian=jacobian, moves=3)
 
 
 def _motion_jacobian_batch(x: Array, u: Array, dt: float, wheelbase: float
@@ -209,9 +210,10 @@ def observation_model(slots: Array, obs_cov: Array) -> Measurement:
     """Batch measurement of the landmarks in ``slots`` (one ``[r, b]`` pair each)."""
     slots = np.asarray(slots, dtype=int)
     k = len(slots)
+    reads = (0, 1, 2, *(int(r) for s in slots for r in (3 + 2 * s, 4 + 2 * s)))
     return Measurement(lambda X: range_bearing(X, slots), stacked_noise(k, obs_cov),
                        space=observation_space(k),
-                       jacobian=lambda x: range_bearing_jacobian(x, slots))
+                       jacobian=lambda x: range_bearing_jacobian(x, slots), reads=reads)
 
 
 def landmark_from_observation(P: Array, Z: Array) -> Array:

@@ -120,7 +120,8 @@ def _group_jacobian(model: Transition, side: str) -> Transition:
         sp_out = SlamGroup(_n_landmarks(y), side)  # type: ignore[arg-type]
         return invariant_jacobians(sp_in, sp_out, x, y, F, G)
 
-    return replace(model, f=f, jacobian=jacobian)
+    # the group error couples the pose and the map: no static-tail declaration holds there
+    return replace(model, f=f, jacobian=jacobian, moves=None)
 
 
 def invariant_motion(model: Transition, side: str) -> Transition:

@@ -1,0 +1,313 @@
+r"""Structured square-root sigma-point steps for states with a static tail (a SLAM map).
+
+Equal to the dense steps of :mod:`estimators.sigma` to round-off, at a fraction of their
+arithmetic, when a model declares its structure (:attr:`Transition.moves`,
+:attr:`Measurement.reads`) and the belief's space is coordinate-wise (``Euclidean``, or
+``Wrapped`` with its angles among the moved rows).  Rules: cubature, unscented (its signed
+centre term included) and central difference, whose factor maps a point pair
+:math:`\pm c\,S_a e_j` of the augmented factor to the columns below (checked against the
+dense step in ``tests/estimators/test_structured.py``).
+
+Prediction (``f`` moves the first ``h`` rows, copies the rest; noise input ``w``).  With
+:math:`S = [[A, 0], [B, C]]` (``A`` the moved rows' ``h × h`` block), the points along a
+tail column have the moved part at the mean, so ``f`` is needed only at the ``2(h + q)``
+points along the moved and noise columns and at the mean.  The rule's factor of all points
+is, up to an orthogonal map of its columns,
+
+.. math::
+
+    \begin{bmatrix} G_v & E & 0 \\ B & 0 & C \end{bmatrix},\qquad
+    G_v = \tfrac{1}{\sqrt2}(C^h_{+v} - C^h_{-v}),\quad
+    E = [\tfrac{1}{\sqrt2}(C^h_{+w} - C^h_{-w}),\ \tfrac{1}{\sqrt2}(C^h_{+} + C^h_{-})]
+
+(``C^h`` the rule's factor of the moved rows' deviations; central difference: the first
+and second differences in place of the half-difference and half-sum).  With
+:math:`E_c = \mathrm{tria}(E)` and the complete QR
+:math:`[G_v^\top; E_c^\top] = Q [R; 0]`:
+
+.. math::
+
+    A' = R^\top,\quad B' = B Q_{11},\quad C' = \mathrm{tria}([C,\ B Q_{12}]),
+
+a rank-``h`` update of ``C`` (:math:`O(h n^2)`, never a downdate; an unscented negative
+centre weight is then one rank-one downdate of the whole factor, as in the dense step).
+The tail's mean is unchanged.
+
+Update (``h`` reads rows up to ``r``; a coordinate-wise space, or one whose retraction keeps
+the first ``r + 1`` coordinates when ξ is zero on its first ``r + 1`` rows, declared by a
+``prefix_rows`` attribute: :class:`~estimators.slam_group.SlamGroup`, so the invariant
+filters' updates too).  The points along the columns after ``r`` leave the read rows at
+the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
+``2(r + 1) + 1`` points, the innovation factor :math:`S_{zz}` is the dense step's, and
+:math:`P_{xz} = S_{:, \le r} G_z^\top` (:math:`G_z` the half-differences of the rule's
+factor :math:`C_z`, zero after ``r``).  With :math:`W = G_z^\top S_{zz}^{-\top}`
+(``(r + 1) × nz``), :math:`K = S_{:, \le r} W S_{zz}^{-1}` and
+:math:`S^+ S^{+\top} = S S^\top - K P_{zz} K^\top = S\,\mathrm{diag}(I - WW^\top,\ I)\,S^\top`,
+so (Potter's square-root update, restricted to the columns up to ``r``)
+
+.. math::
+
+    \hat x^+ = \hat x \boxplus S_{:, \le r} W S_{zz}^{-1}\nu,\qquad
+    S^+ = [\,S_{:, \le r}\,\mathrm{chol}(I - WW^\top),\ S_{:, > r}\,],
+
+lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls.
+:math:`I - WW^\top = (I + G_z^\top M^{-1} G_z)^{-1}` (:math:`M = P_{zz} - G_zG_z^\top
+\succeq R`) is positive definite; a Cholesky factorisation that fails in floating point
+(or any other failure of a structured step) falls back to the dense step, counted in
+:data:`FALLBACKS` by reason.
+
+Not covered (the dense steps run): the prediction on a group error
+(:class:`~estimators.slam_group.SlamGroup`: the map's deviations of the points along the
+map's columns pass through a common heading-dependent map, so ``C`` would need
+re-triangularising), the update of an unscented rule with a negative centre weight (see
+:func:`update`), the HoMM rules, additive noise, and the dense and SVD forms.  The EKF's
+structured covariance steps are :func:`static_tail_cov` and :func:`estimators.ekf.ekf_update`.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+from scipy.linalg import lapack
+
+from .finite import require_finite
+from .linalg import (
+    Array,
+    NotPositiveDefiniteError,
+    chol_update,
+    chol_update_sweep,
+    matvec,
+    nis_of,
+    solve_lower,
+    swap,
+    tria,
+)
+from .models import Innovation, Measurement, SqrtGaussian, Transition
+from .rules import CentralDifference, Cubature, Factor, Unscented
+from .sigma_points import factorise
+from .spaces import Euclidean, Space, Wrapped
+
+__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "predict",
+           "rank_update", "static_tail_cov", "update"]
+
+#: Structured steps that fell back to the dense step, by reason.
+FALLBACKS: Counter[str] = Counter()
+
+_STATE = {"enabled": True}
+_RULES = (Cubature, Unscented, CentralDifference)
+_SQRT_HALF = float(np.sqrt(0.5))
+
+
+@contextmanager
+def dense_steps() -> Iterator[None]:
+    """Within this block every sigma-point step is the dense one (the reference path,
+    for benchmarks and tests)."""
+    before = _STATE["enabled"]
+    _STATE["enabled"] = False
+    try:
+        yield
+    finally:
+        _STATE["enabled"] = before
+
+
+def enabled() -> bool:
+    """False within :func:`dense_steps`."""
+    return _STATE["enabled"]
+
+
+def static_tail_cov(P: Array, F: Array, G: Array, Qw: Array, h: int) -> Array:
+    r"""The EKF's predicted covariance :math:`FPF^\top + GQ_wG^\top` for
+    :math:`F = \mathrm{diag}(F_v, I)`, :math:`G = [G_v; 0]` (``F_v`` the first ``h`` rows
+    and columns): only the first ``h`` rows and columns change (batched over leading axes)."""
+    Fv, Gv = F[..., :h, :h], G[..., :h, :]
+    out = np.array(P, dtype=float, copy=True)
+    top = Fv @ P[..., :h, :]
+    vv = top[..., :, :h] @ swap(Fv) + Gv @ Qw @ swap(Gv)
+    out[..., :h, :h] = 0.5 * (vv + swap(vv))
+    out[..., :h, h:] = top[..., :, h:]
+    out[..., h:, :h] = swap(top[..., :, h:])
+    return out
+
+
+def coordinatewise(space: Space) -> bool:
+    """``Euclidean`` or ``Wrapped``: every coordinate moves on its own."""
+    return type(space) in (Euclidean, Wrapped)
+
+
+def _head_space(space: Space, h: int) -> Space | None:
+    """The space of the first ``h`` coordinates, when the rest are plain Euclidean."""
+    if type(space) is Euclidean:
+        return Euclidean(h)
+    if type(space) is Wrapped and all(a < h for a in space.angles):
+        return Wrapped(h, tuple(space.angles))
+    return None
+
+
+def _pairs(rule: Any, C: Array, N: int) -> tuple[Array, Array]:
+    """A rule factor's columns by point pair: the columns carrying the pair's deviation
+    (tail rows: the augmented factor's column itself) and the rest (tail rows: zero)."""
+    if isinstance(rule, CentralDifference):
+        return C[..., :N], C[..., N:]
+    plus, minus = C[..., :N], C[..., N:]
+    return (plus - minus) * _SQRT_HALF, (plus + minus) * _SQRT_HALF
+
+
+def _pair_index(m: int, N: int, active: Array) -> Array:
+    """Index of each of a rule's ``m`` points (``[centre], +e_1..+e_N, -e_1..-e_N``) into a
+    reduced set ``[mean, +active, -active]``; inactive points map to the mean (0)."""
+    pos = np.zeros(N, dtype=int)
+    pos[active] = 1 + np.arange(len(active))
+    neg = np.where(pos > 0, pos + len(active), 0)
+    head = [0] if m == 2 * N + 1 else []
+    return np.concatenate([np.array(head, dtype=int), pos, neg])
+
+
+def _applies(rule: Any) -> bool:
+    return _STATE["enabled"] and type(rule) in _RULES
+
+
+def predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any) -> SqrtGaussian | None:
+    """The structured prediction (module docstring), or ``None`` when it does not apply
+    or failed (counted): the caller then takes the dense step."""
+    h, n = model.moves, belief.dim
+    if (not _applies(rule) or h is None or model.additive or model.space is not None
+            or h > n):
+        return None
+    head = _head_space(belief.space, h)
+    Sq = model.noise.sqrt
+    if head is None or Sq.shape[-1] != Sq.shape[-2]:
+        return None
+    try:
+        return _predict(rule, belief, model, u, h, head)
+    except (NotPositiveDefiniteError, np.linalg.LinAlgError) as exc:
+        FALLBACKS[f"predict: {exc}"] += 1
+        return None
+
+
+def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
+             head: Space) -> SqrtGaussian:
+    S, mean, space = belief.sqrt, belief.mean, belief.space
+    n, q = belief.dim, model.noise.dim
+    N = n + q
+    xi, wm = rule.points(N)
+    c = float(xi[-1, N - 1]) * -1.0  # the spread: the last point is -c e_N
+    lead = S.shape[:-2]
+    k = h + q
+    dev = np.zeros(lead + (1 + 2 * k, n))
+    W = np.zeros(lead + (1 + 2 * k, q))
+    dev[..., 1:1 + h, :] = c * swap(S[..., :, :h])
+    W[..., 1 + h:1 + k, :] = c * swap(model.noise.sqrt)
+    dev[..., 1 + k:, :] = -dev[..., 1:1 + k, :]
+    W[..., 1 + k:, :] = -W[..., 1:1 + k, :]
+    X = space.retract(mean[..., None, :], dev)
+    Y = model.f(X, u, W)
+    require_finite("transition output", Y)
+    if not np.array_equal(Y[..., h:], X[..., h:]):
+        raise ValueError(f"transition declares moves={h} but changed a later coordinate")
+    active = np.concatenate([np.arange(h), n + np.arange(q)])
+    Yh = Y[..., _pair_index(len(wm), N, active), :h]
+    mean_h = head.mean(Yh, wm)
+    fac = rule.factor(head.local(mean_h[..., None, :], Yh))
+    G, rest = _pairs(rule, fac.C, N)
+    E = [G[..., n:], rest]
+    if fac.c0 is not None and fac.sign > 0:
+        E.append(fac.c0[..., None])
+    Ec = tria(np.concatenate(E, axis=-1))
+    Q, R = np.linalg.qr(np.concatenate([swap(G[..., :h]), swap(Ec)], axis=-2), mode="complete")
+    d = np.where(np.diagonal(R[..., :h, :], axis1=-2, axis2=-1) < 0.0, -1.0, 1.0)[..., None, :]
+    out = np.zeros(S.shape)
+    out[..., :h, :h] = swap(R[..., :h, :]) * d
+    if n > h:
+        B = S[..., h:, :h]
+        out[..., h:, :h] = B @ (Q[..., :h, :h] * d)
+        out[..., h:, h:] = rank_update(S[..., h:, h:], B @ Q[..., :h, h:])
+    if fac.c0 is not None and fac.sign < 0:
+        c0 = np.zeros(lead + (n,))
+        c0[..., :h] = fac.c0
+        out = chol_update(out, c0, -1.0)
+    new_mean = np.concatenate([mean_h, mean[..., h:]], axis=-1)
+    return SqrtGaussian(new_mean, out, space)
+
+
+def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
+           ) -> tuple[SqrtGaussian, Innovation] | None:
+    """The structured update (module docstring), or ``None`` when it does not apply or its
+    Potter factor failed (counted): the caller then takes the dense step.  An innovation
+    covariance that is not positive definite raises as the dense step does.  Not for an
+    unscented rule with a negative centre weight: the dense step's posterior is then a
+    factor and a downdate, which can fail where :math:`SS^\top - UU^\top` does not, and
+    the two must fail alike."""
+    if not _applies(rule) or model.reads is None:
+        return None
+    n = belief.dim
+    a = max(model.reads) + 1
+    if a > n or (isinstance(rule, Unscented) and rule.weights_c(n)[0] < 0.0):
+        return None
+    prefix = getattr(belief.space, "prefix_rows", None)  # e.g. SlamGroup's
+    if not (coordinatewise(belief.space) or (prefix is not None and a >= prefix)):
+        return None
+    S, mean, space = belief.sqrt, belief.mean, belief.space
+    xi, wm = rule.points(n)
+    c = -float(xi[-1, n - 1])
+    lead = S.shape[:-2]
+    dev = np.zeros(lead + (1 + 2 * a, n))
+    dev[..., 1:1 + a, :] = c * swap(S[..., :, :a])
+    dev[..., 1 + a:, :] = -dev[..., 1:1 + a, :]
+    Z = model.h(space.retract(mean[..., None, :], dev))
+    require_finite("measurement model output", Z)
+    Z = Z[..., _pair_index(len(wm), n, np.arange(a)), :]
+    zspace = model.space
+    zhat = zspace.mean(Z, wm)
+    fz = rule.factor(zspace.local(zhat[..., None, :], Z))
+    Gz, _ = _pairs(rule, fz.C, n)
+    nu = zspace.local(zhat, np.asarray(z, dtype=float))
+    Szz = factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
+    if not np.all(np.diagonal(Szz, axis1=-2, axis2=-1) > 0.0):
+        raise NotPositiveDefiniteError("innovation covariance is singular")
+    Wa = swap(solve_lower(Szz, Gz[..., :, :a]))
+    w = solve_lower(Szz, nu)
+    try:
+        La = _chol(np.eye(a) - Wa @ swap(Wa))
+    except NotPositiveDefiniteError as exc:
+        FALLBACKS[f"update: {exc}"] += 1
+        return None
+    Sa = S[..., :, :a]
+    post = np.array(S, dtype=float, copy=True)
+    post[..., :, :a] = Sa @ La
+    new = SqrtGaussian(space.retract(mean, matvec(Sa, matvec(Wa, w))), post, space)
+    return new, Innovation(nu, Szz, nis_of(w))
+
+
+def rank_update(C: Array, V: Array) -> Array:
+    r"""Lower factor of :math:`C C^\top + V V^\top` for a lower-triangular ``C`` (..., n, n)
+    and ``V`` (..., n, k): the Householder row sweep of :func:`chol_update_sweep` (LAPACK
+    ``dtpqrt``, :math:`O(k n^2)`), member by member for a batch (each member's rows, C
+    order, are its transpose's columns, Fortran order: no copies per member)."""
+    if C.ndim == 2:
+        return chol_update_sweep(C, V, 1.0)
+    lead = np.broadcast_shapes(C.shape[:-2], V.shape[:-2])
+    n, k = C.shape[-1], V.shape[-1]
+    L = np.array(np.broadcast_to(C, lead + (n, n)), dtype=float, order="C", copy=True)
+    X = np.array(np.broadcast_to(V, lead + (n, k)), dtype=float, order="C", copy=True)
+    L2, X2 = L.reshape(-1, n, n), X.reshape(-1, n, k)
+    nb = max(1, min(16, n))
+    for i in range(L2.shape[0]):
+        R, _, _, info = lapack.dtpqrt(0, nb, L2[i].T, X2[i].T, overwrite_a=1, overwrite_b=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"triangular-pentagonal QR failed (info {info})")
+        L2[i] = R.T
+    d = np.diagonal(L, axis1=-2, axis2=-1)
+    return L * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
+
+
+def _chol(M: Array) -> Array:
+    try:
+        return np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise NotPositiveDefiniteError(
+            "I - W Wᵀ of the Potter update is not positive definite in floating point"
+        ) from None
