@@ -5,8 +5,9 @@ median CPU seconds (``time.process_time``, one BLAS thread) of each and their ra
 printed as one JSON object, with the objective (½χ² of the final graph) of each path:
 
 - drone (:func:`drone_paths`): ``today`` = ``smooth_drone`` as the campaign called it
-  before the keyframes default (iSAM2 fed ``ISAM_BATCH`` epochs per update, each interval preintegrated about iSAM2's
-  current bias; LM; marginals); ``epochs_prior`` = the same schedule on the graph
+  before the keyframes default (iSAM2 fed ``ISAM_BATCH`` epochs per update, each interval
+  preintegrated about iSAM2's current bias; LM; marginals); ``epochs_prior`` = the same
+  schedule on the graph
   preintegrated once about the prior bias; ``keyframes`` = that graph solved by one LM
   from iSAM2's keyframe estimate; ``keyframes_chain`` = that with the marginals by the
   square-root chain instead of GTSAM's ``Marginals``.  The last three share one graph and
