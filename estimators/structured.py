@@ -78,6 +78,7 @@ from .finite import require_finite
 from .linalg import (
     Array,
     NotPositiveDefiniteError,
+    chol,
     chol_update,
     chol_update_sweep,
     matvec,
@@ -271,9 +272,10 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     Wa = swap(solve_lower(Szz, Gz[..., :, :a]))
     w = solve_lower(Szz, nu)
     try:
-        La = _chol(np.eye(a) - Wa @ swap(Wa))
-    except NotPositiveDefiniteError as exc:
-        FALLBACKS[f"update: {exc}"] += 1
+        La = chol(np.eye(a) - Wa @ swap(Wa))
+    except NotPositiveDefiniteError:
+        FALLBACKS["update: I - W Wᵀ of the Potter update is not positive definite in "
+                  "floating point"] += 1
         return None
     Sa = S[..., :, :a]
     post = np.array(S, dtype=float, copy=True)
@@ -302,12 +304,3 @@ def rank_update(C: Array, V: Array) -> Array:
         L2[i] = R.T
     d = np.diagonal(L, axis1=-2, axis2=-1)
     return L * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
-
-
-def _chol(M: Array) -> Array:
-    try:
-        return np.linalg.cholesky(M)
-    except np.linalg.LinAlgError:
-        raise NotPositiveDefiniteError(
-            "I - W Wᵀ of the Potter update is not positive definite in floating point"
-        ) from None
