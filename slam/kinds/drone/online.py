@@ -30,6 +30,7 @@ from gtsam.symbol_shorthand import B, L, V, X
 from nav.quaternion import dcm_to_q
 from slam.kinds.drone.filtering import DroneEstimate
 from slam.kinds.drone.reference import (
+    StateRows,
     _prior_preintegrations,
     _solve_isam,
     _world_frame,
@@ -45,16 +46,11 @@ def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     scales."""
     t0 = time.perf_counter()
     E = log.n_epochs
-    p, v, bias = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 6))
-    Rs, S = np.empty((E, 3, 3)), np.empty((E, 6, 6))
+    st, S = StateRows(E), np.empty((E, 6, 6))
 
     def record(e: int, isam: gtsam.ISAM2) -> None:
-        pose = isam.calculateEstimatePose3(X(e))
-        Rs[e] = pose.rotation().matrix()
-        p[e] = pose.translation()
-        v[e] = isam.calculateEstimateVector(V(e))
-        bv = isam.calculateEstimateConstantBias(B(e)).vector()
-        bias[e, :3], bias[e, 3:] = bv[3:], bv[:3]
+        st.put(e, isam.calculateEstimatePose3(X(e)), isam.calculateEstimateVector(V(e)),
+               isam.calculateEstimateConstantBias(B(e)))
         S[e] = isam.marginalCovariance(X(e))
 
     params = preintegration_params(log, imu_noise_scale)
@@ -62,7 +58,7 @@ def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
                                   _prior_preintegrations(log, params), on_update=record)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
-    return DroneEstimate(ONLINE, p, v, dcm_to_q(Rs), bias, _world_frame(S, Rs), ids, lms,
-                         np.full((len(ids), 3, 3), np.nan), nis=np.zeros(0),
+    return DroneEstimate(ONLINE, st.p, st.v, dcm_to_q(st.Rs), st.bias, _world_frame(S, st.Rs),
+                         ids, lms, np.full((len(ids), 3, 3), np.nan), nis=np.zeros(0),
                          nis_dof=np.zeros(0, int), time_s=time.perf_counter() - t0,
                          steps=E - 1)

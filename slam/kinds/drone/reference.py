@@ -377,6 +377,24 @@ def _marginals(graph, values, Rs: Array, ids: Array, method: str) -> tuple[Array
     return _world_frame(S, Rs), lcov
 
 
+class StateRows:
+    """Per-epoch states read from GTSAM in the filters' layout: position ``p`` (E, 3),
+    velocity ``v`` (E, 3), bias ``[b_g, b_a]`` (E, 6; GTSAM stores ``[acc, gyro]``) and
+    attitude matrices ``Rs`` (E, 3, 3)."""
+
+    def __init__(self, E: int):
+        self.p, self.v, self.bias = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 6))
+        self.Rs = np.empty((E, 3, 3))
+
+    def put(self, e: int, pose: gtsam.Pose3, vel: Array,
+            bias: gtsam.imuBias.ConstantBias) -> None:
+        self.Rs[e] = pose.rotation().matrix()
+        self.p[e] = pose.translation()
+        self.v[e] = vel
+        bv = bias.vector()
+        self.bias[e, :3], self.bias[e, 3:] = bv[3:], bv[:3]
+
+
 def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
                  sensor_noise_scale: float = 1.0, marginals: bool = True,
                  schedule: str = SCHEDULE, bias_point: str = BIAS_POINT,
@@ -395,15 +413,10 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     graph, values, seen = solve_graph(log, imu_noise_scale=imu_noise_scale,
                                       sensor_noise_scale=sensor_noise_scale,
                                       schedule=schedule, bias_point=bias_point)
-    p, v, bias = np.empty((E, 3)), np.empty((E, 3)), np.empty((E, 6))
-    Rs = np.empty((E, 3, 3))
+    st = StateRows(E)
     for e in range(E):
-        pose = values.atPose3(X(e))
-        Rs[e] = pose.rotation().matrix()
-        p[e] = pose.translation()
-        v[e] = values.atVector(V(e))
-        bv = values.atConstantBias(B(e)).vector()
-        bias[e, :3], bias[e, 3:] = bv[3:], bv[:3]
+        st.put(e, values.atPose3(X(e)), values.atVector(V(e)), values.atConstantBias(B(e)))
+    p, v, bias, Rs = st.p, st.v, st.bias, st.Rs
     q = dcm_to_q(Rs)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
