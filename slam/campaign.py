@@ -24,6 +24,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -101,19 +102,27 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
         proc.join(timeout=2.0)
 
 
-def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple],
-                  fn: Callable[[tuple], Any] | None = None) -> Iterator:
-    """``pool.map(fn, tasks)`` (default :func:`run_task`), the workers forked with
-    SIGINT/SIGTERM blocked (a signal arriving meanwhile is delivered to this process
-    afterwards)."""
+@contextmanager
+def stop_signals_blocked() -> Iterator[None]:
+    """SIGINT/SIGTERM blocked in this (main) thread within the block, so pool workers
+    forked there start with them blocked (:func:`init_worker` unblocks them); a signal
+    arriving meanwhile is delivered to this process afterwards."""
     mask = hasattr(signal, "pthread_sigmask") and threading.current_thread() is \
         threading.main_thread()
     old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS) if mask else None
     try:
-        return pool.map(fn or run_task, tasks)
+        yield
     finally:
         if old is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _pool_results(pool: ProcessPoolExecutor, tasks: list[tuple],
+                  fn: Callable[[tuple], Any] | None = None) -> Iterator:
+    """``pool.map(fn, tasks)`` (default :func:`run_task`), the workers forked with the stop
+    signals blocked (:func:`stop_signals_blocked`)."""
+    with stop_signals_blocked():
+        return pool.map(fn or run_task, tasks)
 
 
 def run_seeds(seed: int, runs: int) -> list[np.random.SeedSequence]:

@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import signal
-import threading
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -57,20 +55,14 @@ def draw_figures(result: Any, plots: Mapping[str, Plot], out_dir: Path, workers:
 
 def _in_pool(result: Any, plots: Mapping[str, Plot], out_dir: Path, workers: int,
              progress: Callable[[str, int, int], None] | None) -> None:
-    from slam.campaign import STOP_SIGNALS, init_worker, stop_pool
+    from slam.campaign import init_worker, stop_pool, stop_signals_blocked
 
     _JOB.update(result=result, plots=plots, out_dir=out_dir)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
                                initializer=init_worker, initargs=(os.getpid(),))
-    mask = hasattr(signal, "pthread_sigmask") and \
-        threading.current_thread() is threading.main_thread()
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS) if mask else None
-        try:  # the workers are forked with SIGINT/SIGTERM blocked (init_worker unblocks)
+        with stop_signals_blocked():  # the workers fork at submit
             pending = {pool.submit(_draw, name) for name in plots}
-        finally:
-            if old is not None:
-                signal.pthread_sigmask(signal.SIG_SETMASK, old)
         done_count = 0
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
