@@ -132,14 +132,23 @@ def attitude_files(quats: Callable[[RunOutcome, str], Array],
     """An attitude-only kind's ``(extra_files, links)`` for its report: TUM files with
     zero position (:func:`attitude_track`) and attitude covariance sidecars of every
     tracked run, ``poses`` saying which poses the files hold."""
-    track = attitude_track(quats, covs)
+    return report_files(attitude_track(quats, covs), f"{ATTITUDE_NOTE}; {poses}",
+                        ATTITUDE_COV, "attitude (zero position)")
 
+
+def report_files(track: TrackOf, note: Note, cov_note: Note, what: Note,
+                 times: TimesOf | None = None
+                 ) -> tuple[Callable[[CampaignResult, Path], list[str]],
+                            Callable[[CampaignResult], list[tuple[str, str]]]]:
+    """A kind's ``(extra_files, links)`` for its report: :func:`write_all` and
+    :func:`links` over the estimators run 0 tracked, ``what`` naming each file's
+    content in the report's list."""
     def write(result: CampaignResult, out_dir: Path) -> list[str]:
-        return write_all(result, out_dir, list(result.outcomes[0].tracks), track,
-                         f"{ATTITUDE_NOTE}; {poses}", ATTITUDE_COV)
+        return write_all(result, out_dir, list(result.outcomes[0].tracks), track, note,
+                         cov_note, times)
 
     def link(result: CampaignResult) -> list[tuple[str, str]]:
-        return links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+        return links(result, list(result.outcomes[0].tracks), what)
     return write, link
 
 

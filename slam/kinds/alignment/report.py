@@ -335,17 +335,10 @@ TUM_NOTE = (f"{tum.ATTITUDE_NOTE}, ENU, body forward-left-up; the filters' corre
 TUM_COV = ("t, then the 3 x 3 misalignment covariance row-major (rad², navigation-frame "
            "rotation vector, East-North-Up: q̂ = Exp(φ) ⊗ q)")
 _TRACK, _TIMES = tum.pose_track(lambda o: (np.zeros((len(o.truth), 3)), o.truth))
-
-
-def write_tum_files(result: Any, out_dir: Any) -> list[str]:
-    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
-    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _TRACK, TUM_NOTE,
-                         TUM_COV, _TIMES)
-
-
-def tum_links(result: Any) -> list[tuple[str, str]]:
-    """The report's entries for :func:`write_tum_files`'s files."""
-    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+write_tum_files, tum_links = tum.report_files(_TRACK, TUM_NOTE, TUM_COV,
+                                              "attitude (zero position)", _TIMES)
+"""The TUM files and covariance sidecars of every tracked run (module docstring) and the
+report's entries for them."""
 
 
 REPORT = KindReport("SINS initial alignment campaign ([Wu-Wang 2014])", alignment_sections,

@@ -303,19 +303,11 @@ def _ea(name: str) -> bool:
 
 
 _TRACK, _TIMES = tum.pose_track(lambda o: (o.truth[:, :3], o.truth[:, 3:7]))
-
-
-def write_tum_files(result: Any, out_dir: Any) -> list[str]:
-    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
-    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _TRACK,
-                         lambda n: EA_NOTE if _ea(n) else POSE_NOTE,
-                         lambda n: EA_COV if _ea(n) else POSE_COV, _TIMES)
-
-
-def tum_links(result: Any) -> list[tuple[str, str]]:
-    """The report's entries for :func:`write_tum_files`'s files."""
-    return tum.links(result, list(result.outcomes[0].tracks),
-                     lambda n: "attitude (zero position)" if _ea(n) else "pose")
+write_tum_files, tum_links = tum.report_files(
+    _TRACK, lambda n: EA_NOTE if _ea(n) else POSE_NOTE, lambda n: EA_COV if _ea(n) else POSE_COV,
+    lambda n: "attitude (zero position)" if _ea(n) else "pose", _TIMES)
+"""The TUM files and covariance sidecars of every tracked run (module docstring) and the
+report's entries for them."""
 
 
 REPORT = KindReport("fixed-wing UAV attitude campaign ([Fixed-wing EA-UKF])", sections,

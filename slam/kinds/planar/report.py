@@ -18,14 +18,14 @@ The figures are drawn by :mod:`slam.kinds.planar.figures`, which the report name
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from slam.kind import Deferred
+from slam.render import tum
 from slam.render.decision import decision_sections, decision_text
-from slam.render.document import KindReport, Link, Section, paper_ranges_section
+from slam.render.document import KindReport, Section, paper_ranges_section
 from slam.render.output import tum_text as tum_lines
 from slam.render.tables import (
     DIVERGED_SHORT,
@@ -44,7 +44,7 @@ from slam.render.tables import (
     terminal_text,
     value,
 )
-from slam.results import REFERENCE, Array, CampaignResult
+from slam.results import REFERENCE, Array
 
 
 def _epoch_time(name: str, e: dict[str, Any]) -> str:
@@ -191,20 +191,10 @@ TUM_NOTE = "x y in the map frame, z = 0, q: the heading about z; poses at the fi
 TUM_COV = "t, then the 3 x 3 covariance of [x, y, heading] row-major (m², m·rad, rad²)"
 
 
-def write_tum_files(result: CampaignResult, out_dir: Path) -> list[str]:
-    """``truth.tum``, ``<name>.tum`` and ``<name>.cov.txt`` of every estimator on each
-    tracked run (run 0; every run with ``--tum all``: :mod:`slam.render.tum`)."""
-    from slam.render import tum
-
-    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _track, TUM_NOTE,
-                         TUM_COV)
-
-
-def tum_links(result: CampaignResult) -> list[Link]:
-    """The TUM files :func:`write_tum_files` writes, for the report's file list."""
-    from slam.render import tum
-
-    return tum.links(result, list(result.outcomes[0].tracks), "trajectory")
+write_tum_files, tum_links = tum.report_files(_track, TUM_NOTE, TUM_COV, "trajectory")
+"""``truth.tum``, ``<name>.tum`` and ``<name>.cov.txt`` of every estimator on each tracked
+run (run 0; every run with ``--tum all``: :mod:`slam.render.tum`), and the report's file
+list entries for them."""
 
 
 REPORT = KindReport("planar SLAM campaign", planar_sections,

@@ -431,15 +431,10 @@ def _track(o: RunOutcome, name: str) -> tuple[Array, Array, Array | None]:
     return np.zeros((len(q), 3)), q, cov
 
 
-def write_tum_files(result: Any, out_dir: Any) -> list[str]:
-    """The TUM files and covariance sidecars of every tracked run (module docstring)."""
-    return tum.write_all(result, out_dir, list(result.outcomes[0].tracks), _track, TUM_NOTE,
-                         TUM_COV)
-
-
-def tum_links(result: Any) -> list[tuple[str, str]]:
-    """The report's entries for :func:`write_tum_files`'s files."""
-    return tum.links(result, list(result.outcomes[0].tracks), "attitude (zero position)")
+write_tum_files, tum_links = tum.report_files(_track, TUM_NOTE, TUM_COV,
+                                              "attitude (zero position)")
+"""The TUM files and covariance sidecars of every tracked run (module docstring) and the
+report's entries for them."""
 
 
 REPORT = KindReport("spinning-projectile attitude campaign", sections,
