@@ -13,9 +13,17 @@ marginals.
 A fixed-lag smoother of lag :math:`\lambda` seconds (GTSAM's ``BatchFixedLagSmoother``:
 Levenberg-Marquardt over the window after every epoch, :data:`FLS_RELATIVE_TOL`) keeps the
 poses of the last :math:`\lambda` seconds and the whole map: each epoch re-stamps every
-mapped landmark with the current time, so only poses are marginalised (their linearisation
-frozen in the marginal factor).  The current pose's covariance is its marginal in the
-window's graph (``gtsam.Marginals``).  Lag 0 marginalises the previous pose at once (a
+mapped landmark with the current time, so only poses are marginalised.  With GTSAM's
+default ``enforceConsistency`` (not settable from Python) every variable a marginal factor
+touches - here the whole map and the window's oldest pose - keeps the linearisation point
+it had then, in every factor on it: first-estimates Jacobians for the window, as in
+ekf-fej.  After a loop closure the map's estimates move metres away from those points (a
+webmap run: median 3.7 m, largest 7.1 m; ``python -m benchmarks.fixed_lag_check``) and a
+short lag's row turns optimistic.  Relinearising every factor but the marginal priors
+instead (that benchmark's window) is worse on the same run - NEES/3 9.9 against GTSAM's
+1.17 at 2 s, 10.4 against 2.38 at 20 s - the spurious information of the standard EKF
+(plain ``ekf``'s ANEES on webmap is 3.1).  The current pose's covariance is its marginal
+in the window's graph (``gtsam.Marginals``).  Lag 0 marginalises the previous pose at once (a
 filter that relinearises the current step); a lag longer than the run re-solves the whole
 graph at every epoch (the online optimum).  GTSAM's ``IncrementalFixedLagSmoother`` is not
 used: on webmap with a 20 s lag its estimate ran away after the loop closure (34 m
@@ -33,6 +41,7 @@ are returned in the world frame (:func:`~slam.kinds.planar.reference.body_to_wor
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import gtsam
@@ -107,7 +116,7 @@ def at_filter_epochs(log: PlanarLog, graph_steps: NDArray[np.int64],
     return out_p, body_to_world_cov(out_p[:, 2], out_c)
 
 
-def _final_map(estimate: gtsam.Values, cov_of, seen: set[int], with_cov: bool
+def final_map(estimate: gtsam.Values, cov_of, seen: set[int], with_cov: bool
                ) -> tuple[NDArray[np.int64], Array, Array | None]:
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([estimate.atPoint2(L(int(j))) for j in ids], dtype=float).reshape(-1, 2)
@@ -138,7 +147,7 @@ def online_planar(log: PlanarLog, filter_steps: NDArray[np.int64], *,
         spent[0] += time.perf_counter() - t
 
     graph, isam, seen = incremental(log, g, chunk=1, on_epoch=record)
-    ids, lms, lm_cov = _final_map(isam.calculateEstimate(), isam.marginalCovariance, seen,
+    ids, lms, lm_cov = final_map(isam.calculateEstimate(), isam.marginalCovariance, seen,
                                   landmark_cov)
     p_f, c_f = at_filter_epochs(log, g.steps, filter_steps, poses, covs, lateral_sigma_m)
     t1 = time.perf_counter()
@@ -151,9 +160,12 @@ def online_planar(log: PlanarLog, filter_steps: NDArray[np.int64], *,
 
 def fixed_lag_planar(log: PlanarLog, filter_steps: NDArray[np.int64], lag_s: float, *,
                      lateral_sigma_m: float = DEFAULT_LATERAL_SIGMA_M,
-                     landmark_cov: bool = False) -> OnlineTrack:
+                     landmark_cov: bool = False,
+                     on_epoch: Callable[[int, gtsam.BatchFixedLagSmoother, gtsam.Values,
+                                         set[int]], None] | None = None) -> OnlineTrack:
     """The fixed-lag smoother of lag ``lag_s`` seconds over ``log``'s graph (module
-    docstring): its current pose and marginal after every epoch, its map at the end."""
+    docstring): its current pose and marginal after every epoch, its map at the end;
+    ``on_epoch(e, smoother, estimate, seen)`` is called after each epoch's update."""
     t0 = time.perf_counter()
     g = graph_inputs(log, lateral_sigma_m)
     lm = gtsam.LevenbergMarquardtParams()
@@ -178,7 +190,9 @@ def fixed_lag_planar(log: PlanarLog, filter_steps: NDArray[np.int64], lag_s: flo
         poses[e] = (pose_est.x(), pose_est.y(), pose_est.theta())
         marginals = gtsam.Marginals(smoother.getFactors(), estimate)
         covs[e] = marginals.marginalCovariance(X(k))
-    ids, lms, lm_cov = _final_map(estimate, marginals.marginalCovariance, seen, landmark_cov)
+        if on_epoch is not None:
+            on_epoch(e, smoother, estimate, seen)
+    ids, lms, lm_cov = final_map(estimate, marginals.marginalCovariance, seen, landmark_cov)
     p_f, c_f = at_filter_epochs(log, g.steps, filter_steps, poses, covs, lateral_sigma_m)
     return OnlineTrack(fixed_lag_name(lag_s), p_f, c_f, ids, lms, lm_cov,
                        time.perf_counter() - t0)
