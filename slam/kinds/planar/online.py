@@ -50,6 +50,7 @@ from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
 from slam.kinds.planar.log import PlanarLog
+from slam.kinds.planar.online_map import MapSampler
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
@@ -63,6 +64,7 @@ from slam.kinds.planar.reference import (
     relative_motions,
 )
 from slam.kinds.planar.world import ONLINE, fixed_lag_name
+from slam.mapping.map_series import MapSeries
 
 Array = NDArray[np.float64]
 
@@ -76,7 +78,8 @@ class OnlineTrack:
 
     poses (E, 3) and pose_cov (E, 3, 3, world frame) at the filter epochs; the final
     map: landmark_ids (L,), landmarks (L, 2), landmark_cov (L, 2, 2) or ``None``;
-    time_s: wall time of the pass (updates, current estimates, marginals).
+    time_s: wall time of the pass (updates, current estimates, marginals); map_series:
+    the map's scores over time (the online row's, :mod:`slam.kinds.planar.online_map`).
     """
 
     name: str
@@ -86,6 +89,7 @@ class OnlineTrack:
     landmarks: Array
     landmark_cov: Array | None
     time_s: float
+    map_series: MapSeries | None = None
 
 
 def at_filter_epochs(log: PlanarLog, graph_steps: NDArray[np.int64],
@@ -132,28 +136,34 @@ def online_planar(log: PlanarLog, filter_steps: NDArray[np.int64], *,
     epoch) and the smoother polished from the same pass.
 
     The smoother's ``time_s`` leaves out the online row's per-epoch marginals (what the
-    chunked path would not pay is still in it: the per-epoch updates)."""
+    chunked path would not pay is still in it: the per-epoch updates); neither time holds
+    the map's scoring (:class:`~slam.kinds.planar.online_map.MapSampler`)."""
     t0 = time.perf_counter()
     g = graph_inputs(log, lateral_sigma_m)
     E = len(g.steps)
     poses, covs = np.empty((E, 3)), np.empty((E, 3, 3))
-    spent = [0.0]
+    spent = [0.0, 0.0]
+    sampler = MapSampler(log.landmarks, E)
 
     def record(e: int, k: int, isam: gtsam.ISAM2) -> None:
         t = time.perf_counter()
         p = isam.calculateEstimatePose2(X(k))
         poses[e] = (p.x(), p.y(), p.theta())
         covs[e] = isam.marginalCovariance(X(k))
-        spent[0] += time.perf_counter() - t
+        t_map = time.perf_counter()
+        sampler.record(e, isam)
+        spent[0] += t_map - t
+        spent[1] += time.perf_counter() - t_map
 
     graph, isam, seen = incremental(log, g, chunk=1, on_epoch=record)
     ids, lms, lm_cov = final_map(isam.calculateEstimate(), isam.marginalCovariance, seen,
                                   landmark_cov)
     p_f, c_f = at_filter_epochs(log, g.steps, filter_steps, poses, covs, lateral_sigma_m)
     t1 = time.perf_counter()
-    track = OnlineTrack(ONLINE, p_f, c_f, ids, lms, lm_cov, t1 - t0)
+    track = OnlineTrack(ONLINE, p_f, c_f, ids, lms, lm_cov, t1 - t0 - spent[1],
+                        sampler.series(g.steps, filter_steps))
     ref = polish(graph, isam, seen, g.steps, True, t1)
-    pass_s = t1 - t0 - spent[0]
+    pass_s = t1 - t0 - spent[0] - spent[1]
     ref = replace(ref, time_solve_s=ref.time_solve_s + pass_s, time_s=ref.time_s + pass_s)
     return track, ref
 

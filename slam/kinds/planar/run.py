@@ -118,7 +118,8 @@ def _score_track(name: str, track: OnlineTrack | None, failure: str | None, log,
         _failed(name, failure, log, steps, truth, scores, tracks)
         return
     s = reduce_run(name, track.poses, track.pose_cov, truth, track.landmark_ids,
-                   track.landmarks, log.landmarks, np.zeros(0), np.zeros(0, int), track.time_s)
+                   track.landmarks, log.landmarks, np.zeros(0), np.zeros(0, int), track.time_s,
+                   map_series=track.map_series)
     scores[name] = replace(s, steps=len(steps) - 1)
     if tracks is not None:
         lm_cov = (track.landmark_cov if track.landmark_cov is not None
@@ -168,7 +169,7 @@ def summarize_planar(world, outcomes: list[RunOutcome], filters: list[str], runs
     online = online_names(world)
     names = filters + online + [ODOMETRY, REFERENCE]
     entries = {n: summarize([o.scores[n] for o in outcomes]) for n in names}
-    for n in filters:
+    for n in filters + online:
         entries[n].update(landmark_anees_entries([
             o.scores[n].map_series for o in outcomes
             if not o.scores[n].diverged and o.scores[n].map_series is not None]))

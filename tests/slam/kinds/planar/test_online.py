@@ -18,6 +18,7 @@ from slam.kinds.planar.online import (
     fixed_lag_planar,
     online_planar,
 )
+from slam.kinds.planar.online_map import ONLINE_MAP_STRIDE
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
@@ -113,6 +114,24 @@ def test_lag_zero_keeps_the_map_and_a_proper_covariance(two_laps, online_run):
     assert np.max(np.hypot(*(zero.poses - track.poses)[:, :2].T)) < 0.5  # a filter's error
 
 
+def test_the_online_map_is_scored_at_every_tenth_epoch_and_the_last(two_laps):
+    """The row's map series holds values at the filter epochs of graph epochs 0, 10, 20, ...
+    and the last, NaN (count 0) elsewhere; at the last epoch its NEES sum is the final
+    map's, from the same iSAM2 state (each landmark's marginal), to 1e-6 relative (single
+    precision storage)."""
+    g = graph_inputs(two_laps)
+    track, _ = online_planar(two_laps, g.steps, landmark_cov=True)
+    m = track.map_series
+    sampled = np.r_[np.arange(0, len(g.steps), ONLINE_MAP_STRIDE), len(g.steps) - 1]
+    assert np.array_equal(np.flatnonzero(np.isfinite(m.nees)), np.unique(sampled))
+    assert np.all(m.nees_count[np.isnan(m.nees)] == 0)
+    err = track.landmarks - two_laps.landmarks[track.landmark_ids]
+    nees = np.einsum("li,lij,lj->", err, np.linalg.inv(track.landmark_cov), err)
+    assert m.nees[-1] == pytest.approx(nees, rel=1e-6)
+    assert m.nees_count[-1] == m.n[-1] == len(track.landmark_ids)
+    assert m.sq_err[-1] == pytest.approx(np.sum(err**2), rel=1e-6)
+
+
 def test_filter_epochs_between_graph_epochs_are_odometry_predictions(two_laps, online_run):
     """A filter epoch between two graph epochs (no observation there): the previous
     epoch's pose composed with the odometry, its body-frame marginal propagated through the
@@ -182,6 +201,8 @@ def test_a_campaign_scores_the_online_rows_apart_from_the_filters():
         want = (seg["estimators"]["ekf"][part]["anees"]
                 / seg["estimators"][ONLINE][part]["anees"])
         assert ratio[part] == pytest.approx(want)
+    assert 0 < s["online"][ONLINE]["landmark_anees"] and "landmark_anees" in s["filters"]["ekf"]
+    assert "landmark_anees" not in s["online"]["fls-0s"]  # no map over time for fixed lags
     for metric in s["ranking"].values():
         assert metric["order"] == ["ekf"]  # the online rows are not ranked
     assert unexplained_nulls(s) == []
