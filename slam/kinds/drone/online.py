@@ -16,7 +16,9 @@ computed on (:func:`slam.kinds.drone.scoring.score`).  The map is iSAM2's after 
 epoch.  The keyframes smoother stays the batch reference: this pass costs about one
 iSAM2 update per epoch, which a re-sighted landmark makes re-factor most of the tree.
 
-``time_s`` is the whole pass (preintegration, graph, updates, estimates and marginals read).
+``time_s`` is the whole pass (preintegration, graph, updates, estimates and marginals read)
+but the map's scoring over time (:mod:`slam.mapping.online_map`: iSAM2's landmark marginals
+every tenth epoch, scored like a filter's map).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from slam.kinds.drone.reference import (
 )
 from slam.kinds.drone.simulate import DroneLog
 from slam.kinds.planar.world import ONLINE
+from slam.mapping.online_map import MapSampler
 
 
 def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
@@ -48,10 +51,16 @@ def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     E = log.n_epochs
     st, S = StateRows(E), np.empty((E, 6, 6))
 
+    sampler = MapSampler(log.landmarks, E)
+    map_s = [0.0]
+
     def record(e: int, isam: gtsam.ISAM2) -> None:
         st.put(e, isam.calculateEstimatePose3(X(e)), isam.calculateEstimateVector(V(e)),
                isam.calculateEstimateConstantBias(B(e)))
         S[e] = isam.marginalCovariance(X(e))
+        t = time.perf_counter()
+        sampler.record(e, isam)
+        map_s[0] += time.perf_counter() - t
 
     params = preintegration_params(log, imu_noise_scale)
     _, values, seen = _solve_isam(log, params, log.obs_cov * sensor_noise_scale, 1,
@@ -60,5 +69,5 @@ def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
     return DroneEstimate(ONLINE, st.p, st.v, dcm_to_q(st.Rs), st.bias, _world_frame(S, st.Rs),
                          ids, lms, np.full((len(ids), 3, 3), np.nan), nis=np.zeros(0),
-                         nis_dof=np.zeros(0, int), time_s=time.perf_counter() - t0,
-                         steps=E - 1)
+                         nis_dof=np.zeros(0, int), time_s=time.perf_counter() - t0 - map_s[0],
+                         steps=E - 1, map_series=sampler.series(np.arange(E), np.arange(E)))

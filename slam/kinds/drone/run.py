@@ -221,6 +221,8 @@ def summarize_drone(world, outcomes: list[RunOutcome], filters: list[str], runs:
     out["paper"] = world.paper
     for name in filters:
         out["filters"][name].update(_map_consistency(outcomes, name, len(times)))
+    if "online" in out:
+        out["online"][ONLINE].update(_map_consistency(outcomes, ONLINE, len(times)))
     fs = world.filters
     return decide(out, headline_metrics(outcomes, [*filters, REFERENCE]), filters=filters,
                   consistency=Consistency(label="position"),

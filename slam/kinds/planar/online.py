@@ -50,7 +50,7 @@ from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
 from slam.kinds.planar.log import PlanarLog
-from slam.kinds.planar.online_map import MapSampler
+from slam.mapping.online_map import MapSampler
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
@@ -79,7 +79,7 @@ class OnlineTrack:
     poses (E, 3) and pose_cov (E, 3, 3, world frame) at the filter epochs; the final
     map: landmark_ids (L,), landmarks (L, 2), landmark_cov (L, 2, 2) or ``None``;
     time_s: wall time of the pass (updates, current estimates, marginals); map_series:
-    the map's scores over time (the online row's, :mod:`slam.kinds.planar.online_map`).
+    the map's scores over time (the online row's, :mod:`slam.mapping.online_map`).
     """
 
     name: str
@@ -137,7 +137,7 @@ def online_planar(log: PlanarLog, filter_steps: NDArray[np.int64], *,
 
     The smoother's ``time_s`` leaves out the online row's per-epoch marginals (what the
     chunked path would not pay is still in it: the per-epoch updates); neither time holds
-    the map's scoring (:class:`~slam.kinds.planar.online_map.MapSampler`)."""
+    the map's scoring (:class:`~slam.mapping.online_map.MapSampler`)."""
     t0 = time.perf_counter()
     g = graph_inputs(log, lateral_sigma_m)
     E = len(g.steps)

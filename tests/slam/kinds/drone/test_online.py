@@ -18,6 +18,7 @@ from slam.kinds.drone.online import online_drone
 from slam.kinds.drone.reference import smooth_drone
 from slam.kinds.drone.simulate import DroneLog, simulate_drone
 from slam.kinds.planar.world import ONLINE
+from slam.mapping.online_map import ONLINE_MAP_STRIDE
 from tests.small_worlds import small_drone_world
 from worlds import WorldError
 
@@ -67,6 +68,18 @@ def test_the_last_epoch_is_the_final_smoothers(log, row):
     np.testing.assert_array_equal(row.landmark_ids, ref.landmark_ids)
     assert np.max(np.linalg.norm(row.landmarks - ref.landmarks, axis=1)) < 1e-2
     assert row.name == ONLINE and row.time_s > 0 and row.steps == log.n_epochs - 1
+    # the map over time: every tenth epoch and the last; at the last, the final map's NEES
+    m = row.map_series
+    sampled = np.unique(np.r_[np.arange(0, log.n_epochs, ONLINE_MAP_STRIDE), log.n_epochs - 1])
+    assert m.dof == 3 and np.array_equal(np.flatnonzero(m.nees_count > 0),
+                                         sampled[m.nees_count[sampled] > 0])
+    assert np.all(np.isnan(np.delete(m.nees, sampled)))
+    cov = ref.landmark_cov
+    err = ref.landmarks - log.landmarks[ref.landmark_ids]
+    assert m.nees_count[-1] == len(ref.landmark_ids)
+    want = np.einsum("li,lij,lj->", err, np.linalg.inv(cov), err)
+    # the keyframes smoother's map NEES, to 2 % (measured 0.7 %: the same graph, its own LM)
+    assert m.nees[-1] == pytest.approx(want, rel=2e-2)
 
 
 def test_the_world_key_adds_the_row_scored_like_a_filter_and_not_ranked():
@@ -76,6 +89,7 @@ def test_the_world_key_adds_the_row_scored_like_a_filter_and_not_ranked():
     e = s["online"][ONLINE]
     assert e["runs_scored"] == 2 and 0.2 < e["anees"] < 5.0 and 0.0 < e["pos_rmse_m"] < 1.0
     assert e["landmark_rmse_m"] > 0.0 and e["time_per_step_s"] > 0.0
+    assert e["landmark_anees_dof"] == 3 and 0.0 < e["landmark_anees"] < 10.0
     assert ONLINE not in s["ranking"]["position"]["order"]
     assert "online" not in run_campaign(small_drone_world(runs=1, filters={"names": ["ekf"]}),
                                         runs=1, seed=0).summary

@@ -18,7 +18,7 @@ from slam.kinds.planar.online import (
     fixed_lag_planar,
     online_planar,
 )
-from slam.kinds.planar.online_map import ONLINE_MAP_STRIDE
+from slam.mapping.online_map import ONLINE_MAP_STRIDE
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
