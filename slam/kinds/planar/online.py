@@ -50,7 +50,6 @@ from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
 from slam.kinds.planar.log import PlanarLog
-from slam.mapping.online_map import MapSampler
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
@@ -65,6 +64,7 @@ from slam.kinds.planar.reference import (
 )
 from slam.kinds.planar.world import ONLINE, fixed_lag_name
 from slam.mapping.map_series import MapSeries
+from slam.mapping.online_map import MapSampler
 
 Array = NDArray[np.float64]
 

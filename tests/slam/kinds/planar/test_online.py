@@ -18,7 +18,6 @@ from slam.kinds.planar.online import (
     fixed_lag_planar,
     online_planar,
 )
-from slam.mapping.online_map import ONLINE_MAP_STRIDE
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
@@ -33,6 +32,7 @@ from slam.kinds.planar.segments import CLOSURE, WINDOW_END, loop_closure_step, r
 from slam.kinds.planar.simulate import simulate_planar
 from slam.kinds.planar.slam import epochs_of
 from slam.kinds.planar.world import ONLINE
+from slam.mapping.online_map import ONLINE_MAP_STRIDE
 from slam.nulls import unexplained_nulls
 from tests.slam.test_cli import SMALL_WORLD
 from tests.small_worlds import small_world
