@@ -258,11 +258,16 @@ def fly(spec: FlightSpec, k: float) -> Flight:
                   sol.sol)
 
 
+NO_FLIGHT_MISFIT = 1e100
+"""The misfit of a drag with no flight: far above any real one, and finite, so that the
+bounded search's parabolic steps (differences and products of misfits) stay finite."""
+
+
 def _misfit(spec: FlightSpec, k: float) -> float:
     try:
         f = fly(spec, k)
     except ValueError:  # no flight with this k: never the fit
-        return math.inf
+        return NO_FLIGHT_MISFIT
     rel = np.array([f.flight_time_s / spec.target_flight_time_s, f.range_m / spec.target_range_m,
                     f.apex_m / spec.target_apex_m]) - 1.0
     return float(rel @ rel)

@@ -32,7 +32,11 @@ MISSES = {
                              "flight.drag_k_per_m",
                              ["search bound 0.001 /m", "flight time 33.64 s", "apex 1445 m "
                               "(target_apex_m = 50000, -97.1 %)"]),
-    "scale height 1e-300": ({"flight.scale_height_m": 1e-300}, "flight.target_range_m",
+    # no air above the ground: every drag the integrator can follow flies the same vacuum
+    # flight, the others are refused (which ones depends on the CPU's rounding in trial
+    # steps), so the search ends inside (a range miss) or at its bound: either key
+    "scale height 1e-300": ({"flight.scale_height_m": 1e-300},
+                            ("flight.target_range_m", "flight.drag_k_per_m"),
                             ["range 8.205e+04 m (target_range_m = 27126.4, +202.5 %)"]),
 }
 
@@ -44,7 +48,7 @@ def test_a_calibration_that_misses_its_targets_is_a_world_error(case: str) -> No
         warnings.simplefilter("error")  # and no numpy warning on the way
         with pytest.raises(WorldError) as err:
             run_campaign(tiny_world(runs=1, **overrides), workers=1)
-    assert err.value.key == key
+    assert err.value.key in ((key,) if isinstance(key, str) else key)
     text = str(err.value)
     assert "\n" not in text and "do not describe one flight" in text
     for f in figures:
