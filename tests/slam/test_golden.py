@@ -4,10 +4,12 @@
 Each campaign is re-run in-process (``slam.campaign.run_campaign(world, runs=..., seed=...,
 workers=1)``; worlds from ``slam.registry.load_world``, the log from
 ``slam.registry.log_kind().open_log``), its summary taken through the renderer's strict JSON
-with every key containing ``time`` removed, and compared with the stored file: the same
-keys in the same order, ints/strings/booleans/nulls exactly, floats to 1e-9 relative
-(BLAS/LAPACK builds may round the last bits differently) with a 1e-12 absolute floor for
-rounding noise around zero.  A refactoring that keeps behaviour passes unchanged; a change
+with every key containing ``time`` removed, and compared with the stored file
+(``golden_differences``): the same keys in the same order, ints/strings/booleans/nulls
+exactly, floats to 1e-9 relative (BLAS/LAPACK builds and numpy's loops for another CPU may
+round the last bits differently) with a 1e-12 absolute floor for rounding noise around
+zero; the ranking's paired differences to 1e-9 of the MSEs they are differences of, and
+the GTSAM smoother's rows to 1e-6 (defined to its LM stopping tolerance).  A refactoring that keeps behaviour passes unchanged; a change
 meant to move the numbers regenerates the files (``python -m tests.golden.regenerate``) and
 commits them with the change.  The five campaigns together take about 12 s of CPU.
 """
@@ -56,6 +58,24 @@ def test_the_comparison_catches_what_it_should():
     assert changed(lambda e: e.update(anees=None))
     # rounding noise around zero is not a change; anything above the floor is
     assert golden.differences([3.5e-18], [0.0]) == [] and golden.differences([0.0], [1e-11])
+    # the smoother's rows to 1e-6, the ranking's paired differences on their MSEs' scale
+    assert golden.golden_differences(base, copy.deepcopy(base)) == []
+
+    def moved(edit) -> list[str]:
+        new = copy.deepcopy(base)
+        edit(new)
+        return golden.golden_differences(base, new)
+
+    ref = base["reference"]["gtsam"]
+    assert moved(lambda s: s["reference"]["gtsam"].update(anees=ref["anees"] * (1 + 1e-7))) == []
+    assert moved(lambda s: s["reference"]["gtsam"].update(anees=ref["anees"] * (1 + 1e-5)))
+    assert moved(lambda s: s["reference"]["gtsam"].update(extra=1))
+    assert moved(lambda s: s["filters"]["ekf"].update(anees=f["anees"] * (1 + 1e-8)))
+    row = next(iter(base["ranking"]["position"]["rows"].values()))
+    assert moved(lambda s: next(iter(s["ranking"]["position"]["rows"].values())).update(
+        delta_mse=row["delta_mse"] + 1e-3 * row["mse"]))
+    assert moved(lambda s: next(iter(s["ranking"]["position"]["rows"].values())).update(
+        mse=row["mse"] * (1 + 1e-8)))
     assert golden.strip_timings({"a": {"time_s": 1, "b": [{"x_time_y": 2, "c": 3}]}}) == {
         "a": {"b": [{"c": 3}]}}
 
@@ -64,7 +84,7 @@ def test_the_comparison_catches_what_it_should():
 def test_campaign_reproduces_its_golden_summary(name):
     campaign = golden.CAMPAIGNS[name]
     new = golden.run(campaign)
-    diff = golden.differences(golden.load(campaign), new)
+    diff = golden.golden_differences(golden.load(campaign), new)
     assert not diff, (f"{name}: the summary moved ({len(diff)} differences; regenerate "
                       "with `python -m tests.golden.regenerate` only if that is intended):\n"
                       + "\n".join(diff[:20]))
