@@ -10,8 +10,8 @@ exactly, floats to 1e-9 relative (BLAS/LAPACK builds and numpy's loops for anoth
 round the last bits differently) with a 1e-12 absolute floor for rounding noise around
 zero; the ranking's paired differences to 1e-9 of the MSEs they are differences of, and
 the GTSAM smoother's rows to 1e-6 (defined to its LM stopping tolerance).  A refactoring
-that keeps behaviour passes unchanged; a change meant to move the numbers regenerates the files (``python -m tests.golden.regenerate``) and
-commits them with the change.  The five campaigns together take about 12 s of CPU.
+that keeps behaviour passes unchanged; a change meant to move the numbers regenerates the
+files (``python -m tests.golden.regenerate``) and commits them with the change.  The five campaigns together take about 12 s of CPU.
 """
 
 from __future__ import annotations
