@@ -11,7 +11,8 @@ round the last bits differently) with a 1e-12 absolute floor for rounding noise 
 zero; the ranking's paired differences to 1e-9 of the MSEs they are differences of, and
 the GTSAM smoother's rows to 1e-6 (defined to its LM stopping tolerance).  A refactoring
 that keeps behaviour passes unchanged; a change meant to move the numbers regenerates the
-files (``python -m tests.golden.regenerate``) and commits them with the change.  The five campaigns together take about 12 s of CPU.
+files (``python -m tests.golden.regenerate``) and commits them with the change.  The five
+campaigns together take about 12 s of CPU.
 """
 
 from __future__ import annotations
