@@ -253,6 +253,20 @@ class SlamGroup(WorldChartGroup):
             out[..., :, iy] = c * B[..., :, iy] - s * B[..., :, ix]
         return out
 
+    def tail_gain(self, x: Array, m: Array, y: Array) -> Array:
+        r"""A declaration for :mod:`estimators.structured`'s group prediction: the complex
+        factor :math:`a` (...,) with :math:`y' \boxminus m = y \boxminus m + a\,ξ_{l_i}` for
+        every landmark (complex coordinates; the vehicle and heading rows unchanged), where
+        ξ is zero on rows 0-2 and :math:`y'` is ``y`` with its landmarks moved as
+        :math:`x \boxplus ξ` moves those of ``x`` (a motion that moves the pose only).
+        Right: :math:`x \boxplus ξ` adds :math:`ξ_l`, so :math:`a = V^{-1}(φ_y - φ_m)`;
+        left: it adds :math:`e^{iφ_x} ξ_l`, so :math:`a = V^{-1}(φ_y - φ_m)\,e^{i(φ_x - φ_m)}`.
+        """
+        phx, phm = np.asarray(x)[..., 2], np.asarray(m)[..., 2]
+        _, q, sc = _half(wrap_angle(np.asarray(y)[..., 2] - phm))
+        vinv = q.conj() / sc
+        return vinv if self.side == "right" else vinv * np.exp(1j * (phx - phm))
+
     @property
     def prefix_rows(self) -> int:
         r"""A declaration for :mod:`estimators.structured`: for every ``r >= 3`` the first

@@ -124,8 +124,9 @@ def _group_jacobian(model: Transition, side: str) -> Transition:
         sp_out = SlamGroup(_n_landmarks(y), side)  # type: ignore[arg-type]
         return invariant_jacobians(sp_in, sp_out, x, y, F, G)
 
-    # the group error couples the pose and the map: no static-tail declaration holds there
-    return replace(model, f=f, jacobian=jacobian, moves=None)
+    # ``moves`` (ambient: the pose moves, the map is copied) holds on the group too; the
+    # structured steps see the group space and take its own form (estimators.structured)
+    return replace(model, f=f, jacobian=jacobian)
 
 
 def invariant_motion(model: Transition, side: str) -> Transition:
