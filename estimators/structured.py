@@ -248,9 +248,13 @@ def _predict_group(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h
     n, q = belief.dim, model.noise.dim
     N = n + q
     _, Y, wm, active = _reduced_points(rule, belief, model, u, h)
-    Yall = Y[..., _pair_index(len(wm), N, active), :]
-    new_mean = space.mean(Yall, wm)
-    fac = rule.factor(space.local(new_mean[..., None, :], Yall))
+    index = _pair_index(len(wm), N, active)
+    # the map points at ŷ: their weights on ŷ's (the same mean), their deviations ŷ's; the
+    # rule's first point first (the heading's chart is taken there)
+    order = np.r_[index[0], np.delete(np.arange(Y.shape[-2]), index[0])]
+    lumped = np.bincount(index, weights=wm, minlength=Y.shape[-2])
+    new_mean = space.mean(Y[..., order, :], lumped[order])
+    fac = rule.factor(space.local(new_mean[..., None, :], Y)[..., index, :])
     G, rest = _pairs(rule, fac.C, N)
     a = space.tail_gain(mean, new_mean, Y[..., 0, :])[..., None, None]
     T = np.zeros(S.shape)
@@ -262,9 +266,7 @@ def _predict_group(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h
         E.append(np.sqrt(n - h) * rest[..., :, h:h + 1])
     if fac.c0 is not None and fac.sign > 0:
         E.append(fac.c0[..., None])
-    E_all = np.concatenate(E, axis=-1)
-    Ec = tria(E_all)[..., :, :min(n, E_all.shape[-1])]
-    V = np.concatenate([G[..., :, :h], Ec], axis=-1)
+    V = np.concatenate([G[..., :, :h], *E], axis=-1)
     Q, R = np.linalg.qr(swap(V[..., :h, :]), mode="complete")
     d = np.where(np.diagonal(R[..., :h, :], axis1=-2, axis2=-1) < 0.0, -1.0, 1.0)[..., None, :]
     out = np.zeros(S.shape)
