@@ -26,7 +26,7 @@ from .linalg import Array
 def retract_world(space: Any, x: Array, delta_w: Array) -> Array:
     r""":math:`x \boxplus M(x)^{-1} δ_w`: a correction ``delta_w`` (world chart) made on the
     group."""
-    d = space.from_world(x, np.asarray(delta_w, dtype=float)[:, None])[:, 0]
+    d = space.from_world(x, np.asarray(delta_w, dtype=float)[..., None])[..., 0]
     return space.retract(np.asarray(x, dtype=float), d)
 
 

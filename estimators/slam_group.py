@@ -40,7 +40,7 @@ from typing import Literal
 import numpy as np
 
 from .group_transport import WorldChartGroup
-from .linalg import Array
+from .linalg import Array, matvec
 from .spaces import MeanNotConvergedError, wrap_angle
 
 Side = Literal["right", "left"]
@@ -113,7 +113,10 @@ class SlamGroup(WorldChartGroup):
     error (module docstring); a :class:`~estimators.spaces.Space`.
 
     Every operation is vectorised over points (rows) and landmarks (complex columns); each
-    heading's trigonometry is evaluated once (:func:`_half`)."""
+    heading's trigonometry is evaluated once (:func:`_half`).  Every operation also takes
+    leading batch axes (a batch of beliefs, :mod:`estimators.batch`): ``x`` (..., d),
+    matrices (..., d, m), point clouds (..., m, d); each member's result is the one-belief
+    call's to round-off."""
 
     n_landmarks: int
     side: Side = "right"
@@ -136,8 +139,8 @@ class SlamGroup(WorldChartGroup):
         t, q, sc = _half(th)
         v = sc * q if self.side == "right" else np.exp(1j * phi) * (sc * q)
         # right, exp(ξ) X: translate and rotate every point; left, X exp(ξ): translate in
-        # the body frame.  u is a fresh copy: in place unless x has more rows than ξ
-        own = u if np.ndim(t) >= np.ndim(phi) else None
+        # the body frame.  u is a fresh copy: in place unless x broadcasts ξ to more rows
+        own = u if np.shape(t) == np.broadcast_shapes(np.shape(t), np.shape(phi)) else None
         new = np.multiply(u, _col(v), out=own)
         new = np.add(new, _col(q * q) * pts if self.side == "right" else pts, out=own)
         return _join(wrap_angle(phi + t), new)
@@ -171,18 +174,27 @@ class SlamGroup(WorldChartGroup):
         (complex numbers; the same for every landmark; :math:`V^{-1}(Δ) e^{iΔ}
         = e^{iΔ/2}/\mathrm{sinc}\tfrac{Δ}{2} = \overline{V^{-1}(Δ)}`).  A vanishing
         denominator (a cloud spread over ~2π) raises :class:`MeanNotConvergedError`.
+        A batch of clouds (..., m, d) gives (..., d); any member's failure raises.
         """
         phi, pts = _split(points)
-        ref = phi[0]
-        mphi = wrap_angle(ref + weights @ wrap_angle(phi - ref))
-        _, q, sc = _half(wrap_angle(phi - mphi))
+        if phi.ndim == 1:
+            ref = phi[0]
+            mphi = wrap_angle(ref + weights @ wrap_angle(phi - ref))
+        else:
+            ref = phi[..., :1]
+            mphi = wrap_angle(ref[..., 0] + matvec(wrap_angle(phi - ref), weights))
+        _, q, sc = _half(wrap_angle(phi - _col(mphi)))
         vinv = weights * q.conj() / sc
-        den = complex(np.sum(vinv))
+        den = np.sum(vinv, axis=-1)
         if self.side == "right":   # w V⁻¹ e^{iΔ} = w q / sinc: the conjugate of w V⁻¹
             den = den.conjugate()
-        if not (np.isfinite(den) and abs(den) > 1e-9):
-            raise MeanNotConvergedError(f"group mean undefined (weight sum {den:.3e})")
-        return _join(mphi, (vinv @ pts) / den)
+        ok = np.isfinite(den) & (np.abs(den) > 1e-9)
+        if not np.all(ok):
+            bad = complex(np.ravel(den)[~np.ravel(ok)][0])
+            raise MeanNotConvergedError(f"group mean undefined (weight sum {bad:.3e})")
+        if phi.ndim == 1:
+            return _join(mphi, (vinv @ pts) / den)
+        return _join(mphi, (vinv[..., None, :] @ pts)[..., 0, :] / _col(den))
 
     def to_world(self, x: Array, A: Array) -> Array:
         r""":math:`M A` with :math:`M = \partial\,(\mathrm{std}(x \boxplus ξ) \boxminus_{std}
@@ -204,21 +216,21 @@ class SlamGroup(WorldChartGroup):
         x = np.asarray(x, dtype=float)
         if self.side == "right":   # rows a_x, a_y += ∓ (J q) A_φ for q = p, l_i
             sign = -1.0 if inverse else 1.0
-            c = np.empty(x.shape[0])   # ±a: one rank-one update of every row at once
-            c[0], c[1], c[2] = -sign * x[1], sign * x[0], 0.0
-            c[3::2] = -sign * x[4::2]
-            c[4::2] = sign * x[3::2]
-            out = np.multiply.outer(c, A[2])
+            c = np.empty(x.shape)   # ±a: one rank-one update of every row at once
+            c[..., 0], c[..., 1], c[..., 2] = -sign * x[..., 1], sign * x[..., 0], 0.0
+            c[..., 3::2] = -sign * x[..., 4::2]
+            c[..., 4::2] = sign * x[..., 3::2]
+            out = c[..., :, None] * A[..., 2:3, :]
             out += A
-            out[2] = A[2]   # the heading row itself is unchanged (exactly, even -0.0)
+            out[..., 2, :] = A[..., 2, :]   # the heading row is unchanged (exactly, even -0.0)
             return out
-        phi = -x[2] if inverse else x[2]
-        c, s = np.cos(phi), np.sin(phi)
-        out = np.empty_like(A)
-        out[2] = A[2]
+        phi = -x[..., 2] if inverse else x[..., 2]
+        c, s = np.cos(phi)[..., None, None], np.sin(phi)[..., None, None]
+        out = np.empty(np.broadcast_shapes(x.shape[:-1] + (1, 1), A.shape))
+        out[..., 2, :] = A[..., 2, :]
         for ix, iy in ((slice(0, 1), slice(1, 2)), (slice(3, None, 2), slice(4, None, 2))):
-            out[ix] = c * A[ix] - s * A[iy]
-            out[iy] = s * A[ix] + c * A[iy]
+            out[..., ix, :] = c * A[..., ix, :] - s * A[..., iy, :]
+            out[..., iy, :] = s * A[..., ix, :] + c * A[..., iy, :]
         return out
 
     def right_world(self, x: Array, B: Array) -> Array:
@@ -226,17 +238,34 @@ class SlamGroup(WorldChartGroup):
         a Jacobian in the standard chart turned into one in the group's error."""
         B, x = np.asarray(B, dtype=float), np.asarray(x, dtype=float)
         if self.side == "right":   # column φ += B a, a = (J p, 0, J l_1, ...)
-            out = B.copy()
-            out[:, 2] += (B[:, 1] * x[0] - B[:, 0] * x[1]
-                          + B[:, 4::2] @ x[3::2] - B[:, 3::2] @ x[4::2])
+            out = np.array(np.broadcast_to(B, np.broadcast_shapes(B.shape, x.shape[:-1]
+                                                                  + (1, 1))))
+            out[..., :, 2] += (B[..., :, 1] * x[..., None, 0] - B[..., :, 0] * x[..., None, 1]
+                               + matvec(B[..., :, 4::2], x[..., 3::2])
+                               - matvec(B[..., :, 3::2], x[..., 4::2]))
             return out
-        c, s = np.cos(x[2]), np.sin(x[2])   # M = blkdiag(R, 1, R, ...): rotate column pairs
-        out = np.empty_like(B)
-        out[:, 2] = B[:, 2]
+        # M = blkdiag(R, 1, R, ...): rotate column pairs
+        c, s = np.cos(x[..., 2])[..., None, None], np.sin(x[..., 2])[..., None, None]
+        out = np.empty(np.broadcast_shapes(x.shape[:-1] + (1, 1), B.shape))
+        out[..., :, 2] = B[..., :, 2]
         for ix, iy in ((slice(0, 1), slice(1, 2)), (slice(3, None, 2), slice(4, None, 2))):
-            out[:, ix] = c * B[:, ix] + s * B[:, iy]
-            out[:, iy] = c * B[:, iy] - s * B[:, ix]
+            out[..., :, ix] = c * B[..., :, ix] + s * B[..., :, iy]
+            out[..., :, iy] = c * B[..., :, iy] - s * B[..., :, ix]
         return out
+
+    def tail_gain(self, x: Array, m: Array, y: Array) -> Array:
+        r"""A declaration for :mod:`estimators.structured`'s group prediction: the complex
+        factor :math:`a` (...,) with :math:`y' \boxminus m = y \boxminus m + a\,ξ_{l_i}` for
+        every landmark (complex coordinates; the vehicle and heading rows unchanged), where
+        ξ is zero on rows 0-2 and :math:`y'` is ``y`` with its landmarks moved as
+        :math:`x \boxplus ξ` moves those of ``x`` (a motion that moves the pose only).
+        Right: :math:`x \boxplus ξ` adds :math:`ξ_l`, so :math:`a = V^{-1}(φ_y - φ_m)`;
+        left: it adds :math:`e^{iφ_x} ξ_l`, so :math:`a = V^{-1}(φ_y - φ_m)\,e^{i(φ_x - φ_m)}`.
+        """
+        phx, phm = np.asarray(x)[..., 2], np.asarray(m)[..., 2]
+        _, q, sc = _half(wrap_angle(np.asarray(y)[..., 2] - phm))
+        vinv = q.conj() / sc
+        return vinv if self.side == "right" else vinv * np.exp(1j * (phx - phm))
 
     @property
     def prefix_rows(self) -> int:
@@ -280,18 +309,18 @@ def invariant_h(space: SlamGroup, x: Array, H: Array) -> Array:
 def _lower_pairs(S: Array) -> Array:
     """Clear the above-diagonal entry of each position pair's 2×2 diagonal block - columns
     (0, 1), (3, 4), (5, 6), ... - by one Givens rotation of the pair's columns (all pairs at
-    once), keeping the diagonal non-negative."""
-    a = np.r_[0, 3:S.shape[0]:2]
+    once), keeping the diagonal non-negative (a batch (..., d, d): member by member)."""
+    a = np.r_[0, 3:S.shape[-1]:2]
     b = a + 1
-    saa, sab = S[a, a], S[a, b]
+    saa, sab = S[..., a, a], S[..., a, b]
     r = np.hypot(saa, sab)
-    c = np.divide(saa, r, out=np.ones_like(r), where=r > 0.0)
-    s = np.divide(sab, r, out=np.zeros_like(r), where=r > 0.0)
-    ca, cb = S[:, a], S[:, b]
-    S[:, a] = ca * c + cb * s
-    S[:, b] = cb * c - ca * s
-    S[a, b] = 0.0
-    neg = S[b, b] < 0.0
+    c = np.divide(saa, r, out=np.ones_like(r), where=r > 0.0)[..., None, :]
+    s = np.divide(sab, r, out=np.zeros_like(r), where=r > 0.0)[..., None, :]
+    ca, cb = S[..., :, a], S[..., :, b]
+    S[..., :, a] = ca * c + cb * s
+    S[..., :, b] = cb * c - ca * s
+    S[..., a, b] = 0.0
+    neg = S[..., b, b] < 0.0
     if neg.any():
-        S[:, b[neg]] *= -1.0
+        S[..., :, b] *= np.where(neg, -1.0, 1.0)[..., None, :]
     return S

@@ -56,11 +56,21 @@ lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls
 (or any other failure of a structured step) falls back to the dense step, counted in
 :data:`FALLBACKS` by reason.
 
-Not covered (the dense steps run): the prediction on a group error
-(:class:`~estimators.slam_group.SlamGroup`: the map's deviations of the points along the
-map's columns pass through a common heading-dependent map, so ``C`` would need
-re-triangularising), the update of an unscented rule with a negative centre weight (see
-:func:`update`), the HoMM rules, additive noise, and the dense and SVD forms.  The EKF's
+Prediction on a group error (:class:`~estimators.slam_group.SlamGroup`, either side, the
+space declaring ``prefix_rows = moves = 3`` and a ``tail_gain``; a lower-triangular factor).
+A point along a map column :math:`k \ge 3` has the pose of :math:`\hat x`, so its image
+is :math:`\hat y = f(\hat x, u, 0)` with its landmarks moved, and its deviation from the
+new mean is :math:`\ell \pm c\, a \odot S_k` exactly (:math:`\ell = \hat y \boxminus
+\bar y`, :math:`a` one complex factor on every landmark pair, e.g. :math:`V^{-1}(φ_{\hat
+y} - φ_{\bar y})` for the right error; the simpler :math:`S' = \mathrm{tria}([S,
+G_w])`, which takes :math:`\ell = 0` and :math:`a = 1`, is not exact).  The map columns
+:math:`a \odot S_k` are made lower triangular again by one Givens rotation per landmark
+pair; the moved, noise and summed columns touch every row and are a rank-:math:`(h + r)`
+update of them (:func:`_predict_group`; ``f`` at the same :math:`1 + 2(h + q)` points).
+
+Not covered (the dense steps run): the update of an unscented rule with a negative centre
+weight (see :func:`update`), the HoMM rules, additive noise, and the dense and SVD forms.
+The EKF's
 structured covariance steps are :func:`static_tail_cov` and :func:`estimators.ekf.ekf_update`.
 """
 
@@ -180,17 +190,25 @@ def predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any) -> SqrtG
         return None
     head = _head_space(belief.space, h)
     Sq = model.noise.sqrt
-    if head is None or Sq.shape[-1] != Sq.shape[-2]:
+    group = (head is None and hasattr(belief.space, "tail_gain")
+             and getattr(belief.space, "prefix_rows", None) == h
+             and not np.any(belief.sqrt[..., :h, h:]))
+    if (head is None and not group) or Sq.shape[-1] != Sq.shape[-2]:
         return None
     try:
+        if group:
+            return _predict_group(rule, belief, model, u, h)
         return _predict(rule, belief, model, u, h, head)
     except (NotPositiveDefiniteError, np.linalg.LinAlgError) as exc:
         FALLBACKS[f"predict: {exc}"] += 1
         return None
 
 
-def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
-             head: Space) -> SqrtGaussian:
+def _reduced_points(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int
+                    ) -> tuple[Array, Array, Array, Array]:
+    """``(X, Y, wm, active)``: the points ``[mean, +active, -active]`` along the moved and
+    noise columns (1 + 2(h + q) of them), their images, the rule's weights and the active
+    columns of the augmented factor; checks the ``moves`` declaration."""
     S, mean, space = belief.sqrt, belief.mean, belief.space
     n, q = belief.dim, model.noise.dim
     N = n + q
@@ -209,7 +227,66 @@ def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
     require_finite("transition output", Y)
     if not np.array_equal(Y[..., h:], X[..., h:]):
         raise ValueError(f"transition declares moves={h} but changed a later coordinate")
-    active = np.concatenate([np.arange(h), n + np.arange(q)])
+    return X, Y, wm, np.concatenate([np.arange(h), n + np.arange(q)])
+
+
+def _predict_group(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int
+                   ) -> SqrtGaussian:
+    r"""The prediction on a group error (:class:`~estimators.slam_group.SlamGroup`) for a
+    motion that moves the pose only (``moves = 3``), module docstring.  A point along a map
+    column :math:`k \ge 3` is :math:`\hat x` with its landmarks moved, so its image is
+    :math:`\hat y = f(\hat x, u, 0)` with those landmarks moved, and its deviation from
+    the new mean :math:`\bar y` is :math:`\ell \pm c\,a \odot S_k` exactly
+    (:math:`\ell = \hat y \boxminus \bar y`, :math:`a` the space's ``tail_gain``: one
+    complex factor on every landmark pair).  So the rule's factor is that of the reduced
+    points (the map points at :math:`\hat y`, which leaves the mean unchanged) with its
+    map columns :math:`a \odot S_k` - lower triangular again after one Givens rotation per
+    landmark pair (``lower_factor``) - and the other columns (moved, noise, the reduced
+    points' sums: every row) are a rank-:math:`(h + r)` update of it: the top ``h`` rows
+    by one QR, the rest by :func:`rank_update` of the map block."""
+    S, mean, space = belief.sqrt, belief.mean, belief.space
+    n, q = belief.dim, model.noise.dim
+    N = n + q
+    _, Y, wm, active = _reduced_points(rule, belief, model, u, h)
+    index = _pair_index(len(wm), N, active)
+    # the map points at ŷ: their weights on ŷ's (the same mean), their deviations ŷ's; the
+    # rule's first point first (the heading's chart is taken there)
+    order = np.r_[index[0], np.delete(np.arange(Y.shape[-2]), index[0])]
+    lumped = np.bincount(index, weights=wm, minlength=Y.shape[-2])
+    new_mean = space.mean(Y[..., order, :], lumped[order])
+    fac = rule.factor(space.local(new_mean[..., None, :], Y)[..., index, :])
+    G, rest = _pairs(rule, fac.C, N)
+    a = space.tail_gain(mean, new_mean, Y[..., 0, :])[..., None, None]
+    T = np.zeros(S.shape)
+    lm = (S[..., h::2, h:] + 1j * S[..., h + 1::2, h:]) * a
+    T[..., h::2, h:], T[..., h + 1::2, h:] = lm.real, lm.imag
+    T = space.lower_factor(T)
+    E = [G[..., :, n:], rest[..., :, active]]
+    if n > h:  # the map points' sums: one column, the same for every map column
+        E.append(np.sqrt(n - h) * rest[..., :, h:h + 1])
+    if fac.c0 is not None and fac.sign > 0:
+        E.append(fac.c0[..., None])
+    V = np.concatenate([G[..., :, :h], *E], axis=-1)
+    Q, R = np.linalg.qr(swap(V[..., :h, :]), mode="complete")
+    d = np.where(np.diagonal(R[..., :h, :], axis1=-2, axis2=-1) < 0.0, -1.0, 1.0)[..., None, :]
+    out = np.zeros(S.shape)
+    out[..., :h, :h] = swap(R[..., :h, :]) * d
+    if n > h:
+        VQ = V[..., h:, :] @ Q
+        out[..., h:, :h] = VQ[..., :, :h] * d
+        out[..., h:, h:] = rank_update(T[..., h:, h:], VQ[..., :, h:])
+    if fac.c0 is not None and fac.sign < 0:
+        out = chol_update(out, fac.c0, -1.0)
+    return SqrtGaussian(new_mean, out, space)
+
+
+def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
+             head: Space) -> SqrtGaussian:
+    S, mean, space = belief.sqrt, belief.mean, belief.space
+    n, q = belief.dim, model.noise.dim
+    N = n + q
+    _, Y, wm, active = _reduced_points(rule, belief, model, u, h)
+    lead = S.shape[:-2]
     Yh = Y[..., _pair_index(len(wm), N, active), :h]
     mean_h = head.mean(Yh, wm)
     fac = rule.factor(head.local(mean_h[..., None, :], Yh))

@@ -12,9 +12,11 @@ Cohorts and regrouping
     thus split where they differ and merge again where they agree: a run is batched only
     with runs doing the same computation on other numbers, so no regrouping can change a
     result.  Joint mode with known association and batchable models
-    (:attr:`SlamProblem.batchable`: the standard-error problems) only; nearest-neighbour
-    association (whose slots depend on each run's own estimates), local mode and the
-    variants run per run, through ``run_problem``.
+    (:attr:`SlamProblem.batchable`: the standard-error problems and the planar group-error
+    ones, ``-inv`` / ``-linv``, whose space :class:`~estimators.slam_group.SlamGroup` takes
+    a batch axis; recorded in the world chart, :func:`~slam.mapping.problem.world_belief`)
+    only; nearest-neighbour association (whose slots depend on each run's own estimates),
+    local mode and the other variants run per run, through ``run_problem``.
 
 Every result is what ``run_problem`` returns for that run (``tests/slam/test_batch_campaign.py``):
 a failing run ends alone with the per-run reason (:func:`estimators.batch.advance`).
@@ -33,7 +35,14 @@ from estimators.linalg import Array
 from estimators.loop import Divergence
 from estimators.models import Belief, Innovation, SqrtGaussian
 from slam.mapping.map_series import BatchMapRecorder
-from slam.mapping.problem import SlamProblem, SlamResult, _chart_prior, _JointSteps, run_problem
+from slam.mapping.problem import (
+    SlamProblem,
+    SlamResult,
+    _chart_prior,
+    _JointSteps,
+    run_problem,
+    world_belief,
+)
 
 __all__ = ["run_problems", "step_groups"]
 
@@ -188,6 +197,7 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
 
 
         def record(e: int, b: Belief, live: Array) -> None:
+            b = world_belief(b)
             poses[live, e] = b.mean[:, :nv]
             covs[live, e] = b.cov_block(rows)
             var[live, e] = (np.sum(b.sqrt[:, :nvt] ** 2, axis=2)
@@ -237,7 +247,7 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
             final_ids[r] = ids
     out = []
     for r, res in enumerate(runs.results(finals)):
-        b = res.belief
+        b = world_belief(res.belief)
         n_lm, nla, nl = lay.n_landmarks(b.dim), lay.landmark_ambient, lay.landmark_dim
         lm = b.mean[nv:nv + nla * n_lm].reshape(n_lm, nla)
         lm_cov = np.array([b.cov_block(p0.landmark_rows(s)) for s in range(n_lm)]

@@ -287,14 +287,14 @@ def world_belief(b: Belief) -> Belief:
     """``b`` with its covariance in the world chart when its space is a group with error
     coordinates of its own (a space with ``to_world``, e.g.
     :class:`~estimators.slam_group.SlamGroup`: first order, :math:`P_w = M P M^\top`);
-    otherwise ``b`` itself."""
+    otherwise ``b`` itself.  A batch of beliefs gives the batch of world-chart beliefs."""
     to_world = getattr(b.space, "to_world", None)
     if to_world is None:
         return b
     if isinstance(b, SqrtGaussian):
         return SqrtGaussian(b.mean, to_world(b.mean, b.sqrt), b.space)
     MP = to_world(b.mean, b.cov)
-    return Gaussian(b.mean, to_world(b.mean, MP.T), b.space)
+    return Gaussian(b.mean, to_world(b.mean, np.swapaxes(MP, -1, -2)), b.space)
 
 
 def _chart_prior(space: Any, x0: Array, P0: Array) -> Array:

@@ -25,6 +25,7 @@ from estimators.slam_group import (
     so2_v,
     so2_v_inv,
 )
+from estimators.spaces import MeanNotConvergedError
 
 N = 2                     # landmarks in the test states: dimension 7
 DIM = 3 + 2 * N
@@ -183,3 +184,60 @@ def test_retract_world_is_the_group_step_of_a_world_correction(side):
     for h, tol in ((1e-4, 1e-7), (1e-6, 1e-11)):
         y = g.retract_world(x, h * d)
         assert np.abs(Wrapped(DIM, (2,)).local(x, y) - h * d).max() < tol * 50
+
+
+def _rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+@pytest.mark.parametrize("side", SIDES)
+def test_every_operation_takes_a_batch_axis_member_by_member(side):
+    """A batch (B, ...) through every operation the filters and the batched campaign call
+    gives each member's one-belief result (to 1e-12), headings near ±π included; a mean
+    that fails for one member of a batch raises as that member alone does."""
+    rng = np.random.default_rng(11)
+    g, B, m = SlamGroup(3, side), 4, 13
+    d = g.dim
+    x = rng.normal(size=(B, d)) * 20.0
+    x[:, 2] = [3.1, -3.1, 0.3, -1e-9]
+    xi = rng.normal(size=(B, m, d)) * 0.3
+    A = rng.normal(size=(B, d, 5))
+    H = rng.normal(size=(B, 6, d))
+    F = rng.normal(size=(B, d, d))
+    w = np.full(m, 1.3 / (m - 1))
+    w[0] = -0.3
+    S = np.tril(rng.normal(size=(B, d, d)))
+    pts = g.retract(x[:, None, :], xi)
+    batched = {"retract": pts, "retract-1": g.retract(x, xi[:, 0]),
+               "local": g.local(x[:, None, :], pts), "mean": g.mean(pts, w),
+               "to_world": g.to_world(x, A), "from_world": g.from_world(x, A),
+               "right_world": g.right_world(x, H), "retract_world": g.retract_world(x, A[..., 0]),
+               "lower_factor": g.lower_factor(S.copy()),
+               "invariant_h": invariant_h(g, x, H),
+               "jacobians": np.concatenate(invariant_jacobians(g, g, x, pts[:, 1], F, A), -1)}
+    for j in range(B):
+        one = {"retract": g.retract(x[j], xi[j]), "retract-1": g.retract(x[j], xi[j, 0]),
+               "local": g.local(x[j], pts[j]), "mean": g.mean(pts[j], w),
+               "to_world": g.to_world(x[j], A[j]), "from_world": g.from_world(x[j], A[j]),
+               "right_world": g.right_world(x[j], H[j]),
+               "retract_world": g.retract_world(x[j], A[j, :, 0]),
+               "lower_factor": g.lower_factor(S[j].copy()),
+               "invariant_h": invariant_h(g, x[j], H[j]),
+               "jacobians": np.concatenate(invariant_jacobians(g, g, x[j], pts[j, 1], F[j],
+                                                               A[j]), -1)}
+        for key, value in one.items():
+            assert batched[key][j].shape == value.shape, key
+            assert _rel(batched[key][j], value) <= 1e-12, key
+    assert not np.triu(batched["lower_factor"][:, [0, 3, 5, 7]][:, :, [1, 4, 6, 8]]).any()
+    # Σ wᵢ V⁻¹(Δᵢ) = 0 for member 1: headings Δ = 0, ±2.5 and w₁ = w₂ = 1 / (2 (1 - c)),
+    # c = Re V⁻¹(2.5) = 1.25 cot 1.25 (the first weight negative)
+    c = 1.25 / math.tan(1.25)
+    w3 = np.array([1.0 - 1.0 / (1.0 - c), 0.5 / (1.0 - c), 0.5 / (1.0 - c)])
+    cloud = g.retract(x[:, None, :], rng.normal(size=(B, 3, d)) * 0.1)
+    cloud[1, :, 2] = 0.3 + np.array([0.0, 2.5, -2.5])
+    with pytest.raises(MeanNotConvergedError) as alone:
+        g.mean(cloud[1], w3)
+    with pytest.raises(MeanNotConvergedError) as in_batch:
+        g.mean(cloud, w3)
+    assert str(in_batch.value) == str(alone.value)
+    g.mean(cloud[[0, 2, 3]], w3)  # the others have a mean

@@ -17,6 +17,7 @@ from tests.golden.regenerate import strip_timings
 from tests.small_worlds import small_world
 
 PLANAR = ("ekf", "srckf", "srukf", "srcdkf")
+INVARIANT = ("ekf-inv", "srckf-inv")
 
 
 def _summaries(world, runs: int):
@@ -27,11 +28,13 @@ def _summaries(world, runs: int):
     return out
 
 
-@pytest.mark.parametrize(("sigma", "filters"), [(0.0, PLANAR), (0.3, ("ekf", "srukf"))])
+@pytest.mark.parametrize(("sigma", "filters"), [(0.0, PLANAR), (0.3, ("ekf", "srukf")),
+                                               (0.3, INVARIANT), (0.3, ("srukf-linv",))])
 def test_planar_batched_summary_equals_the_per_run_one(sigma, filters):
     """sigma 0: every run has the same truth, so one batch throughout; 0.3 m: the truths
     differ, landmarks come into view at different epochs, runs end at other steps, and the
-    batch is split and regrouped epoch by epoch."""
+    batch is split and regrouped epoch by epoch.  The group-error variants (``-inv``,
+    ``-linv``: the state on :class:`~estimators.slam_group.SlamGroup`) batch too."""
     world = small_world(runs=3, filters=filters, vehicle={"initial_sigma_xy_m": sigma})
     per_run, batched = _summaries(world, 3)
     diff = _equal(per_run, batched)
@@ -39,8 +42,9 @@ def test_planar_batched_summary_equals_the_per_run_one(sigma, filters):
 
 
 def test_what_cannot_share_a_batch_runs_per_run():
-    """Nearest-neighbour association, local mode, the variants and the iterated filters run
-    per run (their results are then the per-run ones by construction)."""
+    """Nearest-neighbour association, local mode, first-estimates Jacobians and the iterated
+    filters run per run (their results are then the per-run ones by construction); the
+    group-error variants batch."""
     from slam.kinds.planar.slam import planar_problem
     from slam.mapping import batch
 
@@ -57,28 +61,33 @@ def test_what_cannot_share_a_batch_runs_per_run():
         for kw in ({"association": "nn"}, {"mode": "local"}):
             batch.run_problems(problems, "srckf", **kw)
         batch.run_problems(problems, "iekf", filter_params={})
-        batch.run_problems([planar_problem(log, variant="inv") for log in logs], "srckf-inv")
+        batch.run_problems([planar_problem(log, variant="fej") for log in logs], "ekf-fej")
         assert len(calls) == 1
+        batch.run_problems([planar_problem(log, variant="inv") for log in logs], "srckf-inv")
+        assert len(calls) == 2
     finally:
         batch._run_group = real
 
 
-def test_a_failing_run_inside_a_batch_ends_alone_with_its_per_run_reason():
-    world = small_world(runs=3, filters=("srckf",))
+@pytest.mark.parametrize("name", ["srckf", "srckf-inv", "ekf-inv"])
+def test_a_failing_run_inside_a_batch_ends_alone_with_its_per_run_reason(name):
+    world = small_world(runs=3, filters=(name,))
     logs = [simulate_planar(world, np.random.default_rng(s))
             for s in np.random.SeedSequence(4).spawn(3)]
     obs = np.array(logs[1].obs, copy=True)
     obs[len(obs) // 2, 0] = np.nan  # run 1 gets one corrupt range half way
     logs[1] = replace(logs[1], obs=obs)
-    batch = run_slam_batch(logs, "srckf", filter_params={})
-    alone = [run_slam(log, "srckf", filter_params={}) for log in logs]
+    batch = run_slam_batch(logs, name, filter_params={})
+    alone = [run_slam(log, name, filter_params={}) for log in logs]
     assert batch[1].diverged and batch[1].failure == alone[1].failure
     assert batch[1].failure.startswith("NonFiniteError")
     assert batch[1].epochs_done == alone[1].epochs_done
     for b, a in zip(batch, alone):
         assert b.failure == a.failure
         np.testing.assert_allclose(b.poses, a.poses, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(b.pose_cov, a.pose_cov, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(b.landmarks, a.landmarks, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(b.landmark_cov, a.landmark_cov, rtol=1e-9, atol=1e-12)
         np.testing.assert_array_equal(b.landmark_ids, a.landmark_ids)
         np.testing.assert_array_equal(b.nis_epoch, a.nis_epoch)
         np.testing.assert_allclose(b.nis, a.nis, rtol=1e-9)

@@ -146,7 +146,7 @@ def planar_problem(log: PlanarLog, *, epoch_steps: int = 8, noise_scale: float =
         observations=log.observations_at(), obs=log.obs, obs_id=log.obs_id,
         observe=observe, augment=augment, layout=v.layout,
         truth=log.truth, nearest=nearest, true_landmarks=log.landmarks,
-        batchable=variant is None)
+        batchable=variant in (None, "inv", "linv"))
 
 
 def run_slam(log: PlanarLog, filter_name: str, *, association: str = "known",

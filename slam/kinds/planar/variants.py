@@ -85,24 +85,28 @@ def group_space_of(side: str):
 
 
 def _n_landmarks(x: Array) -> int:
-    return (x.shape[0] - 3) // 2
+    return (x.shape[-1] - 3) // 2
 
 
 def _remembering(model: Transition) -> tuple[Callable[..., Array], Callable[..., Array]]:
     """``(f, value)``: ``value(x, u)`` is :math:`f(x, u, 0)`, remembered so that the EKF's own
     evaluation of ``f`` at the same mean right after its Jacobian reuses it (the same
-    numbers, computed once); every other call goes to ``model.f``."""
+    numbers, computed once); every other call goes to ``model.f``.  ``x`` may be a batch of
+    means (..., n), the EKF's points then (..., 1, n)."""
     last: dict[str, Any] = {}
 
     def value(x: Array, u: Any) -> Array:
-        y = model.f(x[None, :], u, np.zeros((1, model.noise.dim)))[0]
+        x = np.asarray(x, dtype=float)
+        y = model.f(x[..., None, :], u, np.zeros(x.shape[:-1] + (1, model.noise.dim)))
+        y = y[..., 0, :]
         last.update(x=np.array(x, dtype=float, copy=True), u=u, y=y)
         return y
 
     def f(X: Array, u: Any, W: Array) -> Array:
-        if (X.shape[0] == 1 and last and u is last["u"] and not np.any(W)
-                and np.array_equal(X[0], last["x"])):
-            return last["y"][None, :].copy()
+        if (last and X.shape[-2] == 1 and X.shape[:-2] == last["x"].shape[:-1]
+                and u is last["u"] and not np.any(W)
+                and np.array_equal(X[..., 0, :], last["x"])):
+            return last["y"][..., None, :].copy()
         return model.f(X, u, W)
 
     return f, value
@@ -120,8 +124,9 @@ def _group_jacobian(model: Transition, side: str) -> Transition:
         sp_out = SlamGroup(_n_landmarks(y), side)  # type: ignore[arg-type]
         return invariant_jacobians(sp_in, sp_out, x, y, F, G)
 
-    # the group error couples the pose and the map: no static-tail declaration holds there
-    return replace(model, f=f, jacobian=jacobian, moves=None)
+    # ``moves`` (ambient: the pose moves, the map is copied) holds on the group too; the
+    # structured steps see the group space and take its own form (estimators.structured)
+    return replace(model, f=f, jacobian=jacobian)
 
 
 def invariant_motion(model: Transition, side: str) -> Transition:
