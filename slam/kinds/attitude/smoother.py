@@ -32,7 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nav.gyro import dead_reckoning
-from nav.quaternion import dcm_to_q
+from nav.preintegration import preintegrate_rotation
+from nav.quaternion import dcm_to_q, qto_dcm
 from slam.chain_marginals import chain_marginals, jacobian_rows
 from slam.kinds.attitude.simulate import AttitudeLog
 from slam.results import REFERENCE, EstimateSeries
@@ -42,13 +43,25 @@ Array = NDArray[np.float64]
 #: The ways to compute the marginals (module docstring) and the default.
 MARGINAL_METHODS = ("joint", "chain")
 MARGINAL_METHOD = "chain"
+#: How the gyro intervals are preintegrated: ``"samples"`` by GTSAM's
+#: ``integrateMeasurement`` per sample (the old path), ``"batched"`` (default) by
+#: :func:`nav.preintegration.preintegrate_rotation` over all intervals at once (the same
+#: recursion, equal to round-off) into ``PreintegratedAhrsMeasurements``' array constructor.
+PREINTEGRATIONS = ("samples", "batched")
+PREINTEGRATION = "batched"
 
 
 def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
-                   star_sigma: float) -> tuple[Any, Any, list[int], list[int]]:
+                   star_sigma: float, preintegration: str = PREINTEGRATION
+                   ) -> tuple[Any, Any, list[int], list[int]]:
     """The factor graph of the log (module docstring) with its initial values (the star
-    quaternions, or dead reckoning from ``x0`` in vector mode) and the keys ``X``, ``B``."""
+    quaternions, or dead reckoning from ``x0`` in vector mode) and the keys ``X``, ``B``;
+    ``preintegration`` as in :data:`PREINTEGRATIONS`."""
     import gtsam
+
+    if preintegration not in PREINTEGRATIONS:
+        raise ValueError(f"preintegration {preintegration!r}: one of "
+                         f"{', '.join(PREINTEGRATIONS)}")
 
     M, n, dt = log.n_star, log.samples_per_star, log.dt
     X = [gtsam.symbol("x", j) for j in range(M)]
@@ -77,15 +90,34 @@ def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: 
         for j in range(M):
             for r, b in zip(refs, log.star_vectors[j]):
                 graph.add(gtsam.AttitudeFactorRot3(X[j], r, vec_noise, gtsam.Unit3(b)))
-        guesses = dead_reckoning(x0[:4], (log.gyro_block(j) for j in range(M - 1)), dt)
+        guesses = None
     zero3 = np.zeros(3)
+    if preintegration == "samples":
+        if guesses is None:
+            guesses = dead_reckoning(x0[:4], (log.gyro_block(j) for j in range(M - 1)), dt)
+        for j in range(M):
+            values.insert(X[j], rot(guesses[j]))
+            values.insert(B[j], zero3)
+            if j + 1 < M:
+                pim = gtsam.PreintegratedAhrsMeasurements(params, zero3)
+                for w in log.gyro_block(j):
+                    pim.integrateMeasurement(w, dt)
+                graph.add(gtsam.AHRSFactor(X[j], X[j + 1], B[j], pim))
+                graph.add(gtsam.BetweenFactorVector(B[j], B[j + 1], zero3, rw_noise))
+        return graph, values, X, B
+    T, dR, dR_db, cov = preintegrate_rotation(
+        np.reshape(log.gyro, (M - 1, n, 3)), dt, arw**2)
+    if guesses is None:  # dead reckoning: R_{j+1} = R_j ΔR_j
+        start = [qto_dcm(x0[:4])]
+        for d in dR:
+            start.append(start[-1] @ d)
+        guesses = dcm_to_q(np.array(start))
     for j in range(M):
         values.insert(X[j], rot(guesses[j]))
         values.insert(B[j], zero3)
         if j + 1 < M:
-            pim = gtsam.PreintegratedAhrsMeasurements(params, zero3)
-            for w in log.gyro_block(j):
-                pim.integrateMeasurement(w, dt)
+            pim = gtsam.PreintegratedAhrsMeasurements(params, zero3, T, gtsam.Rot3(dR[j]),
+                                                      dR_db[j], cov[j])
             graph.add(gtsam.AHRSFactor(X[j], X[j + 1], B[j], pim))
             graph.add(gtsam.BetweenFactorVector(B[j], B[j + 1], zero3, rw_noise))
     return graph, values, X, B
