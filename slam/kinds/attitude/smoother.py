@@ -34,15 +34,21 @@ from numpy.typing import NDArray
 from nav.gyro import dead_reckoning
 from nav.preintegration import preintegrate_rotation
 from nav.quaternion import dcm_to_q, qto_dcm
-from slam.chain_marginals import chain_marginals, jacobian_rows
+from slam.chain_marginals import chain_marginals, jacobian_rows, linear_rows
+from slam.chain_reduction import chain_covariances as chain_reduction_covariances
+from slam.chain_reduction import epoch_factors, reduce_chain
 from slam.kinds.attitude.simulate import AttitudeLog
 from slam.results import REFERENCE, EstimateSeries
 
 Array = NDArray[np.float64]
 
 #: The ways to compute the marginals (module docstring) and the default.
-MARGINAL_METHODS = ("joint", "chain")
-MARGINAL_METHOD = "chain"
+MARGINAL_METHODS = ("joint", "chain", "reduction")
+MARGINAL_METHOD = "reduction"
+#: The solvers: GTSAM's Levenberg-Marquardt (the old path) or Gauss-Newton (default; the
+#: same stopping rule; no damped trial systems on this nearly linear problem).
+SOLVERS = ("lm", "gauss-newton")
+SOLVER = "gauss-newton"
 #: How the gyro intervals are preintegrated: ``"samples"`` by GTSAM's
 #: ``integrateMeasurement`` per sample (the old path), ``"batched"`` (default) by
 #: :func:`nav.preintegration.preintegrate_rotation` over all intervals at once (the same
@@ -138,47 +144,66 @@ def joint_marginals(graph: Any, result: Any, X: list[int], B: list[int]) -> Arra
     return covs
 
 
+def _slots(X: list[int], B: list[int]) -> dict[int, tuple[int, int]]:
+    """Each key's epoch and offset in the epoch's ``[δθ_j, δb_j]`` columns."""
+    return {**{x: (j, 0) for j, x in enumerate(X)}, **{b: (j, 3) for j, b in enumerate(B)}}
+
+
 def chain_covariances(graph: Any, result: Any, X: list[int], B: list[int]) -> Array:
     """(M, 6, 6) ``[δθ_j, δb_j]`` marginals by the square-root chain
     (:mod:`slam.chain_marginals`; no global variables)."""
-    slots = {**{x: (j, 0) for j, x in enumerate(X)}, **{b: (j, 3) for j, b in enumerate(B)}}
-    local, glob, base = jacobian_rows(graph, result, slots, 6, 0)
+    local, glob, base = jacobian_rows(graph, result, _slots(X, B), 6, 0)
     return chain_marginals(local, glob, base, len(X))[0]
+
+
+def reduction_covariances(graph: Any, result: Any, X: list[int], B: list[int]) -> Array:
+    """(M, 6, 6) ``[δθ_j, δb_j]`` marginals by square-root cyclic reduction
+    (:mod:`slam.chain_reduction`)."""
+    local, _, base, rhs = linear_rows(graph.linearize(result), result.dims(), _slots(X, B),
+                                      6, 0)
+    levels, R_inv, _ = reduce_chain(epoch_factors(local, rhs, base, len(X)))
+    return chain_reduction_covariances(levels, R_inv)
 
 
 def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
                     star_sigma: float, marginals: bool = True,
-                    marginal_method: str = MARGINAL_METHOD) -> EstimateSeries:
-    """GTSAM batch smoother on the same log (module docstring); ``marginal_method``
-    ``"chain"`` or ``"joint"``.
+                    marginal_method: str = MARGINAL_METHOD, solver: str = SOLVER,
+                    preintegration: str = PREINTEGRATION) -> EstimateSeries:
+    """GTSAM batch smoother on the same log (module docstring); ``marginal_method`` one of
+    :data:`MARGINAL_METHODS`, ``solver`` of :data:`SOLVERS`, ``preintegration`` of
+    :data:`PREINTEGRATIONS`.  The old default path is ``preintegration="samples",
+    solver="lm", marginal_method="joint"``.
 
-    ``time_s`` covers building the graph (preintegration included) and the
-    Levenberg-Marquardt solve; ``extra_time_s`` the marginal covariances.
+    ``time_s`` covers building the graph (preintegration included) and the solve;
+    ``extra_time_s`` the marginal covariances.
     """
     import gtsam
 
-    if marginal_method not in MARGINAL_METHODS:
-        raise ValueError(f"marginal_method {marginal_method!r}: one of "
-                         f"{', '.join(MARGINAL_METHODS)}")
+    for name, got, allowed in (("marginal_method", marginal_method, MARGINAL_METHODS),
+                               ("solver", solver, SOLVERS)):
+        if got not in allowed:
+            raise ValueError(f"{name} {got!r}: one of {', '.join(allowed)}")
     t0 = time.perf_counter()
     M = log.n_star
-    graph, values, X, B = attitude_graph(log, x0, P0, arw, bias_rw, star_sigma)
+    graph, values, X, B = attitude_graph(log, x0, P0, arw, bias_rw, star_sigma,
+                                         preintegration)
     # The problem is nearly linear: from the star-measurement (or dead-reckoned) start LM
     # takes two steps; the second changes ½χ² by ~1e-7 relative, and tighter tolerances
     # only add rejected LM trials (Gauss-Newton confirms the optimum to 1e-12).
-    lm = gtsam.LevenbergMarquardtParams()
-    lm.setRelativeErrorTol(1e-6)
-    lm.setAbsoluteErrorTol(1e-9)
-    result = gtsam.LevenbergMarquardtOptimizer(graph, values, lm).optimize()
+    params = gtsam.LevenbergMarquardtParams() if solver == "lm" else gtsam.GaussNewtonParams()
+    params.setRelativeErrorTol(1e-6)
+    params.setAbsoluteErrorTol(1e-9)
+    optimizer = (gtsam.LevenbergMarquardtOptimizer if solver == "lm"
+                 else gtsam.GaussNewtonOptimizer)
+    result = optimizer(graph, values, params).optimize()
     means = np.empty((M, 7))
     means[:, :4] = dcm_to_q(np.array([result.atRot3(k).matrix() for k in X]))
     means[:, 4:] = np.array([result.atVector(k) for k in B])
     solve_s = time.perf_counter() - t0
     covs = np.full((M, 6, 6), np.nan)
     t1 = time.perf_counter()
-    if marginals and marginal_method == "joint":
-        covs = joint_marginals(graph, result, X, B)
-    elif marginals:
-        covs = chain_covariances(graph, result, X, B)
+    if marginals:
+        covs = {"joint": joint_marginals, "chain": chain_covariances,
+                "reduction": reduction_covariances}[marginal_method](graph, result, X, B)
     return EstimateSeries(REFERENCE, means, covs, M - 1, nis=np.full(M, np.nan), nis_dof=0,
                           time_s=solve_s, extra_time_s=time.perf_counter() - t1)
