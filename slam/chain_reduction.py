@@ -4,9 +4,9 @@ the epochs.
 
 The rows of a whitened linear least-squares problem :math:`\|A\,δ - b\|^2` (from
 :func:`slam.chain_marginals.linear_rows`) each touch epoch ``base`` and ``base + 1``.  The
-rows of each epoch are first compressed by QR into one square-root factor
-:math:`F_j = [U_j\ V_j\ r_j]` on :math:`(x_j, x_{j+1})` (:math:`2n` rows; the last
-epoch's :math:`V = 0`).  One level eliminates every odd epoch :math:`j` from the two
+rows of each epoch form one square-root factor :math:`F_j = [U_j\ V_j\ r_j]` on
+:math:`(x_j, x_{j+1})` (the last epoch's :math:`V = 0`; the coarser chains' factors have
+:math:`2n` rows).  One level eliminates every odd epoch :math:`j` from the two
 factors that hold it, by one QR with :math:`x_j`'s columns first:
 
 .. math::
@@ -70,8 +70,8 @@ def _inv_upper(R: Array, what: str) -> Array:
 
 
 def epoch_factors(local: Array, rhs: Array, base: Array, M: int) -> Array:
-    """(M, 2n, 2n + 1): each epoch's rows ``[local | rhs]`` compressed by QR (row order
-    and the residual rows dropped; an epoch with fewer rows padded with zero rows)."""
+    """(M, p, 2n + 1): each epoch's rows ``[local | rhs]`` as one factor, padded with zero
+    rows to the most any epoch has (``p``; zero rows change no QR)."""
     n2 = local.shape[1]
     order = np.argsort(base, kind="stable")
     b = base[order]
@@ -83,34 +83,41 @@ def epoch_factors(local: Array, rhs: Array, base: Array, M: int) -> Array:
     dense = np.zeros((M, max(int(counts.max(initial=0)), 1), n2 + 1))
     dense[b, slot, :n2] = local[order]
     dense[b, slot, n2] = rhs[order]
-    if dense.shape[1] > n2:
-        dense = _qr_r(dense)
-    else:
-        dense = np.concatenate([dense, np.zeros((M, n2 - dense.shape[1], n2 + 1))], axis=1)
-    return dense[:, :n2]
+    return dense
+
+
+def _with_rows(F: Array, r: int) -> Array:
+    """Factors (k, p, c) as (k, r, c): compressed by QR (residual rows dropped) or padded
+    with zero rows."""
+    if F.shape[1] > r:
+        return _qr_r(F)[:, :r]
+    if F.shape[1] < r:
+        return np.concatenate([F, np.zeros((len(F), r - F.shape[1], F.shape[2]))], axis=1)
+    return F
 
 
 def reduce_chain(F: Array) -> tuple[list[_Level], Array, Array]:
-    """The levels of the reduction of the chain factors ``F`` (M, 2n, 2n + 1) and the last
-    epoch's ``R^{-1}`` (n, n) and ``R^{-1} d`` (n,)."""
+    """The levels of the reduction of the chain factors ``F`` (M, p, 2n + 1) and the last
+    epoch's ``R^{-1}`` (n, n) and ``R^{-1} d`` (n,); the factors of the coarser chains
+    have 2n rows."""
     n = F.shape[2] // 2
     levels = []
     while len(F) > 1:
-        L = len(F)
+        L, p = len(F), F.shape[1]
         prev, cur = F[0:L - 1:2], F[1:L:2]  # the two factors of each odd epoch
         k = len(cur)
-        st = np.zeros((k, 4 * n, 3 * n + 1))
-        st[:, :2 * n, :n], st[:, :2 * n, n:2 * n] = prev[:, :, n:2 * n], prev[:, :, :n]
-        st[:, :2 * n, 3 * n] = prev[:, :, 2 * n]
-        st[:, 2 * n:, :n], st[:, 2 * n:, 2 * n:3 * n] = cur[:, :, :n], cur[:, :, n:2 * n]
-        st[:, 2 * n:, 3 * n] = cur[:, :, 2 * n]
+        st = np.zeros((k, 2 * p, 3 * n + 1))
+        st[:, :p, :n], st[:, :p, n:2 * n] = prev[:, :, n:2 * n], prev[:, :, :n]
+        st[:, :p, 3 * n] = prev[:, :, 2 * n]
+        st[:, p:, :n], st[:, p:, 2 * n:3 * n] = cur[:, :, :n], cur[:, :, n:2 * n]
+        st[:, p:, 3 * n] = cur[:, :, 2 * n]
         R = _qr_r(st)
         R_inv = _inv_upper(R[:, :n, :n], "an epoch")
         K = R_inv @ R[:, :n, n:3 * n]
         d = np.einsum("kij,kj->ki", R_inv, R[:, :n, 3 * n])
         levels.append(_Level(R_inv, K, d, L))
         coarse = R[:, n:3 * n, n:]
-        F = np.concatenate([coarse, F[L - 1:L]]) if L % 2 else coarse
+        F = np.concatenate([coarse, _with_rows(F[L - 1:L], 2 * n)]) if L % 2 else coarse
     last = _qr_r(F[0][None, :, np.r_[0:n, 2 * n]])[0]
     R_inv = _inv_upper(last[:n, :n], "the last epoch")
     return levels, R_inv, R_inv @ last[:n, n]

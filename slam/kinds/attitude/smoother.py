@@ -55,19 +55,36 @@ SOLVER = "gauss-newton"
 #: recursion, equal to round-off) into ``PreintegratedAhrsMeasurements``' array constructor.
 PREINTEGRATIONS = ("samples", "batched")
 PREINTEGRATION = "batched"
+#: The start in vector mode: ``"dead-reckoning"`` from ``x0`` (the old path; degrees off
+#: after minutes) or ``"wahba"`` (default): each epoch's attitude from its own star vectors
+#: (:func:`wahba`, within the star noise), so Gauss-Newton needs two steps, not four.
+VECTOR_STARTS = ("dead-reckoning", "wahba")
+VECTOR_START = "wahba"
+
+
+def wahba(refs: Array, vectors: Array) -> Array:
+    r"""(M, 3, 3) the least-squares attitudes :math:`C_j = \arg\min_C \sum_i
+    \|r_i - C b_{ji}\|^2` (Wahba's problem; ``refs`` (k, 3) nav frame, ``vectors``
+    (M, k, 3) body frame, k >= 2 not parallel): with :math:`\sum_i r_i b_{ji}^\top =
+    U S V^\top`, :math:`C_j = U\,\mathrm{diag}(1, 1, \det U \det V)\,V^\top`."""
+    U, _, Vt = np.linalg.svd(np.einsum("ia,mib->mab", refs, vectors))
+    d = np.ones((len(U), 3))
+    d[:, 2] = np.linalg.det(U) * np.linalg.det(Vt)
+    return (U * d[:, None, :]) @ Vt
 
 
 def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
-                   star_sigma: float, preintegration: str = PREINTEGRATION
-                   ) -> tuple[Any, Any, list[int], list[int]]:
+                   star_sigma: float, preintegration: str = PREINTEGRATION,
+                   vector_start: str = VECTOR_START) -> tuple[Any, Any, list[int], list[int]]:
     """The factor graph of the log (module docstring) with its initial values (the star
-    quaternions, or dead reckoning from ``x0`` in vector mode) and the keys ``X``, ``B``;
-    ``preintegration`` as in :data:`PREINTEGRATIONS`."""
+    quaternions; in vector mode as ``vector_start`` of :data:`VECTOR_STARTS`) and the keys
+    ``X``, ``B``; ``preintegration`` as in :data:`PREINTEGRATIONS`."""
     import gtsam
 
-    if preintegration not in PREINTEGRATIONS:
-        raise ValueError(f"preintegration {preintegration!r}: one of "
-                         f"{', '.join(PREINTEGRATIONS)}")
+    for name, got, allowed in (("preintegration", preintegration, PREINTEGRATIONS),
+                               ("vector_start", vector_start, VECTOR_STARTS)):
+        if got not in allowed:
+            raise ValueError(f"{name} {got!r}: one of {', '.join(allowed)}")
 
     M, n, dt = log.n_star, log.samples_per_star, log.dt
     X = [gtsam.symbol("x", j) for j in range(M)]
@@ -97,6 +114,8 @@ def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: 
             for r, b in zip(refs, log.star_vectors[j]):
                 graph.add(gtsam.AttitudeFactorRot3(X[j], r, vec_noise, gtsam.Unit3(b)))
         guesses = None
+        if vector_start == "wahba":
+            guesses = dcm_to_q(wahba(np.asarray(log.star_refs), np.asarray(log.star_vectors)))
     zero3 = np.zeros(3)
     if preintegration == "samples":
         if guesses is None:
@@ -168,11 +187,13 @@ def reduction_covariances(graph: Any, result: Any, X: list[int], B: list[int]) -
 def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: float,
                     star_sigma: float, marginals: bool = True,
                     marginal_method: str = MARGINAL_METHOD, solver: str = SOLVER,
-                    preintegration: str = PREINTEGRATION) -> EstimateSeries:
+                    preintegration: str = PREINTEGRATION,
+                    vector_start: str = VECTOR_START) -> EstimateSeries:
     """GTSAM batch smoother on the same log (module docstring); ``marginal_method`` one of
     :data:`MARGINAL_METHODS`, ``solver`` of :data:`SOLVERS`, ``preintegration`` of
-    :data:`PREINTEGRATIONS`.  The old default path is ``preintegration="samples",
-    solver="lm", marginal_method="joint"``.
+    :data:`PREINTEGRATIONS`, ``vector_start`` of :data:`VECTOR_STARTS`.  The old default
+    path is ``preintegration="samples", solver="lm", marginal_method="joint",
+    vector_start="dead-reckoning"``.
 
     ``time_s`` covers building the graph (preintegration included) and the solve;
     ``extra_time_s`` the marginal covariances.
@@ -186,7 +207,7 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
     t0 = time.perf_counter()
     M = log.n_star
     graph, values, X, B = attitude_graph(log, x0, P0, arw, bias_rw, star_sigma,
-                                         preintegration)
+                                         preintegration, vector_start)
     # The problem is nearly linear: from the star-measurement (or dead-reckoned) start LM
     # takes two steps; the second changes ½χ² by ~1e-7 relative, and tighter tolerances
     # only add rejected LM trials (Gauss-Newton confirms the optimum to 1e-12).

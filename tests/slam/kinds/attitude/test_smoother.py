@@ -88,18 +88,19 @@ def test_chain_marginals_equal_gtsams_joint_marginals(mode):
 
 @pytest.mark.parametrize("mode", ["quaternion", "vectors"])
 def test_the_fast_path_reaches_the_old_paths_optimum(mode):
-    """Batched preintegration, Gauss-Newton and the reduction's marginals against the old
-    default (per-sample preintegration, LM, GTSAM's joint marginals): ½χ² of each result
-    on the old path's graph."""
+    """Batched preintegration, the Wahba start, Gauss-Newton and the reduction's marginals
+    against the old default (per-sample preintegration, dead-reckoned start, LM, GTSAM's
+    joint marginals): ½χ² of each result on the old path's graph."""
     import gtsam
 
     from slam.kinds.attitude import smoother as sm
 
     log, args = _world_and_args(mode)
     old = att.smooth_attitude(*args, preintegration="samples", solver="lm",
-                              marginal_method="joint")
+                              marginal_method="joint", vector_start="dead-reckoning")
     new = att.smooth_attitude(*args)
-    graph, values, X, B = sm.attitude_graph(*args, preintegration="samples")
+    graph, values, X, B = sm.attitude_graph(*args, preintegration="samples",
+                                            vector_start="dead-reckoning")
 
     def objective(s):
         v = gtsam.Values()
@@ -116,3 +117,18 @@ def test_the_fast_path_reaches_the_old_paths_optimum(mode):
         att.smooth_attitude(*args, solver="dogleg")
     with pytest.raises(ValueError, match="preintegration"):
         att.smooth_attitude(*args, preintegration="exact")
+    with pytest.raises(ValueError, match="vector_start"):
+        att.smooth_attitude(*args, vector_start="triad")
+
+
+def test_wahba_recovers_noiseless_attitudes() -> None:
+    from nav.quaternion import qnormalize, qto_dcm
+    from slam.kinds.attitude.smoother import wahba
+
+    rng = np.random.default_rng(5)
+    C = qto_dcm(qnormalize(rng.normal(size=(6, 4))))
+    refs = rng.normal(size=(3, 3))
+    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
+    body = np.einsum("mba,ib->mia", C, refs)  # b = Cᵀ r
+    np.testing.assert_allclose(wahba(refs[:2], body[:, :2]), C, atol=1e-14)
+    np.testing.assert_allclose(wahba(refs, body), C, atol=1e-14)
