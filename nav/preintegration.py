@@ -86,12 +86,11 @@ def preintegrate_rotation(gyro: Any, dt: float, gyro_var: float
     w = np.asarray(gyro, dtype=np.float64)
     m, n = w.shape[:2]
     E, Jr = _so3_exp_right_jacobian(np.swapaxes(w, 0, 1) * dt)  # (n, m, 3, 3)
-    Jr *= dt
-    Et = np.swapaxes(E, -1, -2)
-    R, D = E[0], -Jr[0]
+    Jt = np.swapaxes(Jr, -1, -2) * dt  # the recursion transposed: Dᵀ ← Dᵀ E - J_rᵀ dt
+    R, Dt = E[0], -Jt[0]
     T = dt
     for k in range(1, n):
-        R, D = R @ E[k], Et[k] @ D - Jr[k]
+        R, Dt = R @ E[k], Dt @ E[k] - Jt[k]
         T += dt
     C = np.broadcast_to(gyro_var * T * np.eye(3), (m, 3, 3)).copy()
-    return T, R, D, C
+    return T, R, np.ascontiguousarray(np.swapaxes(Dt, -1, -2)), C

@@ -46,7 +46,8 @@ Array = NDArray[np.float64]
 MARGINAL_METHODS = ("joint", "chain", "reduction")
 MARGINAL_METHOD = "reduction"
 #: The solvers: GTSAM's Levenberg-Marquardt (the old path) or Gauss-Newton (default; the
-#: same stopping rule; no damped trial systems on this nearly linear problem).
+#: same stopping rule; no damped trial systems on this nearly linear problem; sequential
+#: Cholesky in the chain's order).
 SOLVERS = ("lm", "gauss-newton")
 SOLVER = "gauss-newton"
 #: How the gyro intervals are preintegrated: ``"samples"`` by GTSAM's
@@ -104,8 +105,9 @@ def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: 
     rw_noise = gtsam.noiseModel.Isotropic.Sigma(3, max(bias_rw * math.sqrt(n * dt), 1e-15))
     if log.star_q is not None:
         star_noise = gtsam.noiseModel.Isotropic.Sigma(3, star_sigma)
-        for j in range(M):
-            graph.add(gtsam.PriorFactorRot3(X[j], rot(log.star_q[j]), star_noise))
+        stars = [gtsam.Rot3.Quaternion(*q) for q in np.asarray(log.star_q).tolist()]
+        for x, r in zip(X, stars):
+            graph.add(gtsam.PriorFactorRot3(x, r, star_noise))
         guesses = log.star_q
     else:
         vec_noise = gtsam.noiseModel.Isotropic.Sigma(2, star_sigma)
@@ -137,14 +139,16 @@ def attitude_graph(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw: 
         for d in dR:
             start.append(start[-1] @ d)
         guesses = dcm_to_q(np.array(start))
+    inits = (stars if log.star_q is not None
+             else [gtsam.Rot3.Quaternion(*q) for q in np.asarray(guesses).tolist()])
     for j in range(M):
-        values.insert(X[j], rot(guesses[j]))
+        values.insert(X[j], inits[j])
         values.insert(B[j], zero3)
-        if j + 1 < M:
-            pim = gtsam.PreintegratedAhrsMeasurements(params, zero3, T, gtsam.Rot3(dR[j]),
-                                                      dR_db[j], cov[j])
-            graph.add(gtsam.AHRSFactor(X[j], X[j + 1], B[j], pim))
-            graph.add(gtsam.BetweenFactorVector(B[j], B[j + 1], zero3, rw_noise))
+    for j in range(M - 1):
+        pim = gtsam.PreintegratedAhrsMeasurements(params, zero3, T, gtsam.Rot3(dR[j]),
+                                                  dR_db[j], cov[j])
+        graph.add(gtsam.AHRSFactor(X[j], X[j + 1], B[j], pim))
+        graph.add(gtsam.BetweenFactorVector(B[j], B[j + 1], zero3, rw_noise))
     return graph, values, X, B
 
 
@@ -214,6 +218,13 @@ def smooth_attitude(log: AttitudeLog, x0: Array, P0: Array, arw: float, bias_rw:
     params = gtsam.LevenbergMarquardtParams() if solver == "lm" else gtsam.GaussNewtonParams()
     params.setRelativeErrorTol(1e-6)
     params.setAbsoluteErrorTol(1e-9)
+    if solver == "gauss-newton":  # eliminate along the chain, no fill-reducing ordering
+        order = gtsam.Ordering()
+        for x, b in zip(X, B):
+            order.push_back(x)
+            order.push_back(b)
+        params.setOrdering(order)
+        params.setLinearSolverType("SEQUENTIAL_CHOLESKY")
     optimizer = (gtsam.LevenbergMarquardtOptimizer if solver == "lm"
                  else gtsam.GaussNewtonOptimizer)
     result = optimizer(graph, values, params).optimize()
