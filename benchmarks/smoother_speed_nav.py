@@ -12,9 +12,12 @@ printed as one JSON object, with the objective (½χ² of the final graph) of ea
   from iSAM2's keyframe estimate; ``keyframes_chain`` = that with the marginals by the
   square-root chain instead of GTSAM's ``Marginals``.  The last three share one graph and
   so one optimum; ``today``'s graph is another (the bias points differ).
-- star-sensor (:func:`attitude_paths`): ``today`` = ``smooth_attitude`` with GTSAM's joint
-  marginals per epoch (the path before the chain marginals); ``chain`` = the same solve,
-  marginals once by the square-root chain (the default now).
+- star-sensor (:func:`attitude_paths`): ``today`` = ``smooth_attitude``'s old default
+  (per-sample preintegration, dead-reckoned start in vector mode, LM, GTSAM's joint
+  marginals per epoch); ``chain`` = the same solve, marginals once by the sequential
+  square-root chain; ``fast`` = the default now (batched preintegration, Wahba start,
+  Gauss-Newton, marginals by square-root cyclic reduction), with the objective (½χ²) of
+  each result on ``today``'s graph.
 
 Usage: ``python -m benchmarks.smoother_speed_nav [--worlds drone,star-sensor]
 [--repeats 3]``.  Timings under load are "loaded"; the ratios are side by side.
@@ -88,7 +91,10 @@ def drone_paths(world_name: str, repeats: int) -> dict[str, Any]:
 
 def attitude_paths(world_name: str, repeats: int) -> dict[str, Any]:
     """The star-sensor reference's paths on run 0 of ``world_name``."""
+    import gtsam
+
     import slam.kinds.attitude.run as att
+    from slam.kinds.attitude import smoother as sm
     from slam.kinds.attitude.simulate import simulate_attitude
 
     w = load_world(world_name)
@@ -96,16 +102,31 @@ def attitude_paths(world_name: str, repeats: int) -> dict[str, Any]:
     x0, P0 = att.initial_belief(w, log)
     fs = w.filters
     args = (log, x0, P0, fs.arw_rad_sqrt_s, fs.bias_rw_rad_s_sqrt_s, fs.star_sigma_rad)
-    paths = {"today": lambda: att.smooth_attitude(*args, marginal_method="joint"),
-             "chain": lambda: att.smooth_attitude(*args, marginal_method="chain")}
+    old = {"preintegration": "samples", "solver": "lm", "vector_start": "dead-reckoning"}
+    variants: dict[str, dict[str, str]] = {"today": {**old, "marginal_method": "joint"},
+                                           "chain": {**old, "marginal_method": "chain"},
+                                           "fast": {}}
+    paths = {k: (lambda v=v: att.smooth_attitude(*args, **v)) for k, v in variants.items()}
     out: dict[str, Any] = {"world": world_name, "star_epochs": log.n_star,
                            "paths": _compare(paths, repeats, "today")}
-    out["solve_only_cpu_s_median"] = float(np.median([_cpu(
-        lambda: att.smooth_attitude(*args, marginals=False))[0] for _ in range(repeats)]))
-    a, b = paths["today"](), paths["chain"]()
-    d = np.sqrt(np.einsum("...ii->...i", a.covs))
-    out["chain_vs_joint_marginals_scaled"] = float(np.max(
-        np.abs(a.covs - b.covs) / (d[..., :, None] * d[..., None, :])))
+    out["solve_only_cpu_s_median"] = {k: float(np.median([_cpu(
+        lambda v=variants[k]: att.smooth_attitude(*args, marginals=False, **v))[0]
+        for _ in range(repeats)])) for k in ("today", "fast")}
+    graph, _, X, B = sm.attitude_graph(*args, preintegration="samples",
+                                       vector_start="dead-reckoning")
+    got = {k: f() for k, f in paths.items()}
+    for k, s in got.items():  # ½χ² of each result on the old path's graph
+        values = gtsam.Values()
+        for j, (x, b) in enumerate(zip(X, B)):
+            values.insert(x, gtsam.Rot3.Quaternion(*s.means[j, :4]))
+            values.insert(b, s.means[j, 4:])
+        out["paths"][k]["objective"] = graph.error(values)
+    e0 = out["paths"]["today"]["objective"]
+    out["fast_vs_today_objective_rel"] = abs(out["paths"]["fast"]["objective"] - e0) / e0
+    d = np.sqrt(np.einsum("...ii->...i", got["today"].covs))
+    for k in ("chain", "fast"):
+        out[k + "_vs_joint_marginals_scaled"] = float(np.max(
+            np.abs(got["today"].covs - got[k].covs) / (d[..., :, None] * d[..., None, :])))
     return out
 
 

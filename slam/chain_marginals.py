@@ -47,17 +47,26 @@ def jacobian_rows(graph: Any, values: Any, slots: Mapping[int, tuple[int, int]],
     ``base + 1``), ``glob`` (R, g) and ``base`` (R,); ValueError if a row touches epochs
     further apart or no epoch.
     """
-    S = graph.linearize(values).sparseJacobian_()
+    return linear_rows(graph.linearize(values), values.dims(), slots, n, g)[:3]
+
+
+def linear_rows(linear: Any, dims: Mapping[int, int], slots: Mapping[int, tuple[int, int]],
+                n: int, g: int) -> tuple[Array, Array, Array, Array]:
+    """:func:`jacobian_rows` of a linearised graph (``GaussianFactorGraph``; ``dims`` its
+    keys' tangent dimensions), with the right-hand side ``b`` (R,) of its rows
+    :math:`||A δ - b||^2` as a fourth array."""
+    S = linear.sparseJacobian_()
     r, c, v = S[0].astype(np.int64) - 1, S[1].astype(np.int64) - 1, S[2]
-    dims = values.dims()
     keys = sorted(dims)  # sparseJacobian_'s column order: sorted keys
     d = np.array([dims[k] for k in keys], dtype=np.int64)
     e_key, off_key = np.array([slots[k] for k in keys], dtype=np.int64).reshape(-1, 2).T
     within = np.arange(int(d.sum())) - np.repeat(np.cumsum(d) - d, d)
     ep, cl = np.repeat(e_key, d), np.repeat(off_key, d) + within
     keep = c < len(ep)  # the last column is the right-hand side
-    r, c, v = r[keep], c[keep], v[keep]
     n_rows = int(r.max()) + 1 if len(r) else 0
+    rhs = np.zeros(n_rows)
+    rhs[r[~keep]] = v[~keep]
+    r, c, v = r[keep], c[keep], v[keep]
     on_epoch = ep[c] >= 0
     none = np.iinfo(np.int64).max
     base = np.full(n_rows, none)
@@ -71,7 +80,7 @@ def jacobian_rows(graph: Any, values: Any, slots: Mapping[int, tuple[int, int]],
         raise ValueError("a factor couples epochs that are not consecutive")
     local[re, offset] = v[on_epoch]
     glob[r[~on_epoch], cl[c[~on_epoch]]] = v[~on_epoch]
-    return local, glob, base
+    return local, glob, base, rhs
 
 
 def _triangularise(A: Array, k: int) -> tuple[Array, Array]:

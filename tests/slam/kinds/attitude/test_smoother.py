@@ -69,6 +69,8 @@ def test_chain_marginals_equal_the_dense_square_root_inverse(mode):
                       for j in range(M)])
     chain = sm.chain_covariances(graph, result, X, B)
     assert _scaled(dense, chain) < 1e-10  # measured: 8.6e-12 (quaternions), 9.2e-12
+    reduction = sm.reduction_covariances(graph, result, X, B)
+    assert _scaled(dense, reduction) < 1e-10  # measured: 1.8e-12 (quaternions), 1.2e-12
 
 
 @pytest.mark.parametrize("mode", ["quaternion", "vectors"])
@@ -82,3 +84,51 @@ def test_chain_marginals_equal_gtsams_joint_marginals(mode):
     assert _scaled(joint.covs, chain.covs) < 5e-8
     with pytest.raises(ValueError, match="marginal_method"):
         att.smooth_attitude(*args, marginal_method="dense")
+
+
+@pytest.mark.parametrize("mode", ["quaternion", "vectors"])
+def test_the_fast_path_reaches_the_old_paths_optimum(mode):
+    """Batched preintegration, the Wahba start, Gauss-Newton and the reduction's marginals
+    against the old default (per-sample preintegration, dead-reckoned start, LM, GTSAM's
+    joint marginals): ½χ² of each result on the old path's graph."""
+    import gtsam
+
+    from slam.kinds.attitude import smoother as sm
+
+    log, args = _world_and_args(mode)
+    old = att.smooth_attitude(*args, preintegration="samples", solver="lm",
+                              marginal_method="joint", vector_start="dead-reckoning")
+    new = att.smooth_attitude(*args)
+    graph, values, X, B = sm.attitude_graph(*args, preintegration="samples",
+                                            vector_start="dead-reckoning")
+
+    def objective(s):
+        v = gtsam.Values()
+        for j, (x, b) in enumerate(zip(X, B)):
+            v.insert(x, gtsam.Rot3.Quaternion(*s.means[j, :4]))
+            v.insert(b, s.means[j, 4:])
+        return graph.error(v)
+
+    e_old, e_new = objective(old), objective(new)
+    assert abs(e_new - e_old) <= 1e-9 * e_old  # measured 3.5e-15 (quaternions), 2.4e-14
+    assert graph.error(values) > 10 * e_old  # the start is not the optimum
+    assert _scaled(old.covs, new.covs) < 5e-8  # GTSAM's joint marginals' own error
+    with pytest.raises(ValueError, match="solver"):
+        att.smooth_attitude(*args, solver="dogleg")
+    with pytest.raises(ValueError, match="preintegration"):
+        att.smooth_attitude(*args, preintegration="exact")
+    with pytest.raises(ValueError, match="vector_start"):
+        att.smooth_attitude(*args, vector_start="triad")
+
+
+def test_wahba_recovers_noiseless_attitudes() -> None:
+    from nav.quaternion import qnormalize, qto_dcm
+    from slam.kinds.attitude.smoother import wahba
+
+    rng = np.random.default_rng(5)
+    C = qto_dcm(qnormalize(rng.normal(size=(6, 4))))
+    refs = rng.normal(size=(3, 3))
+    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
+    body = np.einsum("mba,ib->mia", C, refs)  # b = Cᵀ r
+    np.testing.assert_allclose(wahba(refs[:2], body[:, :2]), C, atol=1e-14)
+    np.testing.assert_allclose(wahba(refs, body), C, atol=1e-14)
