@@ -33,12 +33,14 @@ a rank-``h`` update of ``C`` (:math:`O(h n^2)`, never a downdate; an unscented n
 centre weight is then one rank-one downdate of the whole factor, as in the dense step).
 The tail's mean is unchanged.
 
-Update (``h`` reads rows up to ``r``; a coordinate-wise space, or one whose retraction keeps
-the first ``r + 1`` coordinates when ξ is zero on its first ``r + 1`` rows, declared by a
-``prefix_rows`` attribute: :class:`~estimators.slam_group.SlamGroup`, so the invariant
-filters' updates too).  The points along the columns after ``r`` leave the read rows at
-the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
-``2(r + 1) + 1`` points, the innovation factor :math:`S_{zz}` is the dense step's, and
+Update (``h`` reads rows up to ``r``; a coordinate-wise space, a :class:`Product` whose
+leading coordinate-wise parts hold rows ``0 .. r`` (an INS state's position and velocity
+before its attitude), or one whose retraction keeps the first ``r + 1`` coordinates when ξ
+is zero on its first ``r + 1`` rows, declared by a ``prefix_rows`` attribute:
+:class:`~estimators.slam_group.SlamGroup`, so the invariant filters' updates too).  The
+points along the columns after ``r`` leave the read rows at the mean, so their ``h`` is
+:math:`h(\hat x)` exactly: ``h`` runs at ``2(r + 1) + 1`` points, the innovation factor
+:math:`S_{zz}` is the dense step's, and
 :math:`P_{xz} = S_{:, \le r} G_z^\top` (:math:`G_z` the half-differences of the rule's
 factor :math:`C_z`, zero after ``r``).  With :math:`W = G_z^\top S_{zz}^{-\top}`
 (``(r + 1) × nz``), :math:`K = S_{:, \le r} W S_{zz}^{-1}` and
@@ -90,9 +92,9 @@ from .linalg import (
 from .models import Innovation, Measurement, SqrtGaussian, Transition
 from .rules import CentralDifference, Cubature, Factor, Unscented
 from .sigma_points import factorise
-from .spaces import Euclidean, Space, Wrapped
+from .spaces import Euclidean, Product, Space, Wrapped
 
-__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "predict",
+__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "flat_rows", "predict",
            "rank_update", "static_tail_cov", "update"]
 
 #: Structured steps that fell back to the dense step, by reason.
@@ -137,6 +139,21 @@ def static_tail_cov(P: Array, F: Array, G: Array, Qw: Array, h: int) -> Array:
 def coordinatewise(space: Space) -> bool:
     """``Euclidean`` or ``Wrapped``: every coordinate moves on its own."""
     return type(space) in (Euclidean, Wrapped)
+
+
+def flat_rows(space: Space) -> int:
+    """How many leading coordinates move on their own (ambient = tangent, each retracted by
+    its own ξ row): all of a coordinate-wise space, the leading coordinate-wise parts of a
+    :class:`Product`, else 0."""
+    if coordinatewise(space):
+        return space.dim
+    n = 0
+    if type(space) is Product:
+        for part in space.parts:
+            if not coordinatewise(part):
+                break
+            n += part.dim
+    return n
 
 
 def _head_space(space: Space, h: int) -> Space | None:
@@ -249,7 +266,7 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     if a > n or (isinstance(rule, Unscented) and rule.weights_c(n)[0] < 0.0):
         return None
     prefix = getattr(belief.space, "prefix_rows", None)  # e.g. SlamGroup's
-    if not (coordinatewise(belief.space) or (prefix is not None and a >= prefix)):
+    if not (a <= flat_rows(belief.space) or (prefix is not None and a >= prefix)):
         return None
     S, mean, space = belief.sqrt, belief.mean, belief.space
     xi, wm = rule.points(n)
