@@ -259,7 +259,9 @@ class Measurement:
     ``reads`` (a declaration, optional): the state coordinates ``h`` depends on (ambient and
     tangent alike; its Jacobian is zero elsewhere); the square-root sigma-point update and
     the EKF's then take structured steps (:mod:`estimators.structured`).  ``None``: no
-    declaration, the dense steps.
+    declaration, the dense steps.  ``selects`` (a declaration, with ``reads``):
+    :math:`h(x) = x_{\\mathrm{reads}}` exactly, so the square-root sigma-point update is the
+    Kalman update on those rows (no points drawn).
     """
 
     h: Callable[[Array], Array]
@@ -267,6 +269,7 @@ class Measurement:
     space: Space = field(default=None)  # type: ignore[assignment]
     jacobian: Callable[[Array], Array] | None = None
     reads: tuple[int, ...] | None = None
+    selects: bool = False
 
     def __post_init__(self) -> None:
         _check_model("measurement", self.h, self.noise, self.jacobian)
@@ -276,6 +279,9 @@ class Measurement:
                 raise ValueError(f"measurement reads must be non-empty rows >= 0, "
                                  f"got {self.reads!r}")
             object.__setattr__(self, "reads", rows)
+        if self.selects and (self.reads is None or len(self.reads) != self.noise.dim):
+            raise ValueError("a measurement that selects rows declares them (reads), one "
+                             "per measured coordinate")
         if self.space is None:
             object.__setattr__(self, "space", Euclidean(self.noise.dim))
         elif self.space.dim != self.noise.dim:

@@ -17,8 +17,9 @@ With a lever arm :math:`\ell` (body frame, IMU to antenna) and the bias-correcte
     \ (\omega = \tilde\omega - b_g).
 
 Without a lever arm the models are linear (:math:`H = [I\ 0]` blocks) and declare the rows
-they read (``Measurement.reads``: the square-root sigma-point filters then update through
-the position / velocity columns of their factor only, :mod:`estimators.structured`).
+they read (``Measurement.reads``, ``selects``: the square-root sigma-point filters then take
+the Kalman update through the position / velocity columns of their factor,
+:mod:`estimators.structured`).
 """
 
 from __future__ import annotations
@@ -106,8 +107,9 @@ def gnss_measurement(layout: InsLayout, *, position_sigma: ArrayLike | None = No
                     H[rows, L.tbg] = C @ skew(arm)
         return H
 
+    reads = None if arm is not None else _rows_read(L, parts)
     return Measurement(h, Noise.from_sigmas(np.concatenate(sig)), jacobian=jacobian,
-                       reads=None if arm is not None else _rows_read(L, parts))
+                       reads=reads, selects=reads is not None)
 
 
 def _rows_read(L: InsLayout, parts: list[str]) -> tuple[int, ...] | None:

@@ -1,13 +1,13 @@
 """The INS filters' faster paths against the ones they replace, on random INS states: the
-GNSS update through the rows it reads (``Measurement.reads`` on the INS product space)
-against the dense sigma-point update."""
+GNSS update through the rows it reads (``Measurement.reads`` on the INS product space, and
+the Kalman update of a model that ``selects`` them) against the dense sigma-point update."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from estimators.models import SqrtGaussian
+from estimators.models import Measurement, SqrtGaussian
 from estimators.rules import CentralDifference, Cubature, Unscented
 from estimators.sigma import sigma_update
 from estimators.structured import dense_steps, flat_rows
@@ -45,13 +45,24 @@ def test_gnss_update_by_the_rows_read_equals_the_dense_update(rule, kw, reads):
     meas = gnss_measurement(LAYOUT, **kw)
     assert meas.reads == reads
     z = meas.h(b.mean[None])[0] + rng.normal(0, 1.0, meas.noise.dim)
-    out, inn = sigma_update(rule, "sqrt", b, meas, z)
+    assert meas.selects
+    points = Measurement(meas.h, meas.noise, reads=meas.reads)  # the points along the rows
     with dense_steps():
         ref, ref_inn = sigma_update(rule, "sqrt", b, meas, z)
-    assert _rel(out.mean, ref.mean) < 1e-12
-    assert _rel(out.cov, ref.cov) < 1e-12
-    assert _rel(np.asarray(inn.nis), np.asarray(ref_inn.nis)) < 1e-12
-    assert not np.array_equal(out.cov, ref.cov)  # the structured step did run
+    for model in (meas, points):
+        out, inn = sigma_update(rule, "sqrt", b, model, z)
+        assert _rel(out.mean, ref.mean) < 1e-12
+        assert _rel(out.cov, ref.cov) < 1e-12
+        assert _rel(np.asarray(inn.nis), np.asarray(ref_inn.nis)) < 1e-12
+        assert not np.array_equal(out.cov, ref.cov)  # the structured step did run
+
+
+def test_selects_needs_one_row_read_per_coordinate():
+    meas = gnss_measurement(LAYOUT, position_sigma=1.0)
+    with pytest.raises(ValueError, match="selects"):
+        Measurement(meas.h, meas.noise, selects=True)
+    with pytest.raises(ValueError, match="selects"):
+        Measurement(meas.h, meas.noise, reads=(0, 1), selects=True)
 
 
 def test_a_lever_arm_declares_no_rows():
