@@ -27,7 +27,8 @@ discretised per block of at most :data:`SUBSTEP_SAMPLES` samples (the block's
 interval-weighted mean rate and specific force, the attitude at its middle sample):
 :math:`\Phi_k = \sum_{i\le3}(F_kh_k)^i/i!`,
 :math:`Q_k = Q_ch_k + \tfrac12(F_kQ_c + Q_cF_k^\top)h_k^2 + \tfrac13F_kQ_cF_k^\top h_k^3`,
-composed over the blocks (:func:`compose`); :math:`\Phi` is the EKF's Jacobian.
+composed over the blocks (:func:`compose_sums`, equal to the pairwise :func:`compose`);
+:math:`\Phi` is the EKF's Jacobian.
 :math:`Q_c = \mathrm{diag}(0, N_a^2, N_g^2, q_{bg}, q_{ba})` (isotropic white noise, so
 :math:`C N_a^2 C^\top = N_a^2 I`).
 """
@@ -63,8 +64,8 @@ LAYOUT = InsLayout(DIM, bg=BG)
 #: At most this many IMU samples per step of the error-state transition.
 SUBSTEP_SAMPLES = 10
 
-__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "error_matrices",
-           "error_transition", "ins_transition", "preintegrate", "propagate",
+__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "compose_sums",
+           "error_matrices", "error_transition", "ins_transition", "preintegrate", "propagate",
            "propagate_preintegrated", "psd_sqrt"]
 
 
@@ -84,10 +85,26 @@ class InsModel:
                              np.full(3, s.accel_bias.psd())])
         qc.flags.writeable = False
         object.__setattr__(self, "_qc", qc)
+        F0 = np.zeros((DIM, DIM))
+        idx = np.arange(3)
+        F0[idx, 3 + idx] = 1.0
+        if self.earth_rate is not None and np.any(self.earth_rate):
+            F0[TV, TV] = -2.0 * skew(np.asarray(self.earth_rate, dtype=float))
+        F0[6 + idx, 9 + idx] = -1.0
+        F0[9 + idx, 9 + idx] = -s.gyro_bias.rate()
+        F0[12 + idx, 12 + idx] = -s.accel_bias.rate()
+        F0.flags.writeable = False
+        object.__setattr__(self, "_F0", F0)
 
     def qc(self) -> Array:
         """Diagonal of :math:`GQ_cG^\\top` on the 15-d error state (read-only; built once)."""
         return self._qc  # type: ignore[attr-defined]
+
+    def f0(self) -> Array:
+        """The entries of :math:`F` that do not depend on the epoch: the position-velocity
+        identity, the Earth rate, the attitude-gyro-bias coupling and the bias rates
+        (read-only; built once)."""
+        return self._F0  # type: ignore[attr-defined]
 
 
 def psd_sqrt(C: Array) -> Array:
@@ -122,17 +139,10 @@ def propagate(X: Array, gyro: Array, accel: Array, dt: Array, model: InsModel) -
 def error_matrices(C: Array, w: Array, f: Array, model: InsModel) -> Array:
     """Continuous error-state matrices ``F`` (..., 15, 15) at attitude matrices ``C``,
     bias-corrected rates ``w`` and specific forces ``f`` (module docstring)."""
-    F = np.zeros(w.shape[:-1] + (DIM, DIM))
-    idx = np.arange(3)
-    F[..., idx, 3 + idx] = 1.0
+    F = np.array(np.broadcast_to(model.f0(), w.shape[:-1] + (DIM, DIM)))
     F[..., TV, TTH] = -C @ skew(f)
     F[..., TV, TBA] = -C
-    if model.earth_rate is not None and np.any(model.earth_rate):
-        F[..., TV, TV] = -2.0 * skew(np.asarray(model.earth_rate, dtype=float))
     F[..., TTH, TTH] = -skew(w)
-    F[..., 6 + idx, 9 + idx] = -1.0
-    F[..., 9 + idx, 9 + idx] = -model.psd.gyro_bias.rate()
-    F[..., 12 + idx, 12 + idx] = -model.psd.accel_bias.rate()
     return F
 
 
@@ -151,6 +161,25 @@ def compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
             Qn = np.concatenate([Qn, Qs[..., -1:, :, :]], axis=-3)
         Phis, Qs = P, Qn
     return Phis[..., 0, :, :], Qs[..., 0, :, :]
+
+
+def compose_sums(Phis: Array, Qs: Array) -> tuple[Array, Array]:
+    r""":func:`compose`'s ``(Φ, Q)`` as sums: with the suffix products
+    :math:`\Psi_k = \Phi_{N-1}\cdots\Phi_{k+1}` (one log-depth scan),
+    :math:`\Phi = \Psi_0\Phi_0` and :math:`Q = \sum_k \Psi_k Q_k \Psi_k^\top` (the same
+    products, associated differently: fewer, larger batched calls)."""
+    N = Phis.shape[-3]
+    if N == 1:
+        return Phis[..., 0, :, :], Qs[..., 0, :, :]
+    P = Phis[..., ::-1, :, :].copy()  # P_i = Φ_{N-1} ··· Φ_{N-1-i} after the scan
+    off = 1
+    while off < N:
+        P[..., off:, :, :] = P[..., :-off, :, :] @ P[..., off:, :, :]
+        off *= 2
+    Psi = P[..., N - 2::-1, :, :]  # Ψ_k = P_{N-2-k}, k = 0 .. N-2 (Ψ_{N-1} = I)
+    Q = Qs[..., N - 1, :, :] + np.sum(Psi @ Qs[..., :N - 1, :, :] @ np.swapaxes(Psi, -1, -2),
+                                      axis=-3)
+    return P[..., N - 1, :, :], Q
 
 
 def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
@@ -193,7 +222,7 @@ def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsM
     C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
     qc = model.qc()
     Phis, Qks = step_matrices(error_matrices(C, wm, fm, model), h, qc)
-    Phi, Qe = compose(Phis, Qks)
+    Phi, Qe = compose_sums(Phis, Qks)
     return Phi, 0.5 * (Qe + Qe.T)
 
 
@@ -248,36 +277,37 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
     t_k^2`."""
     w = gyro - b[:3]
     f = accel - b[3:]
+    n = len(dt)
     h = dt[:, None]
-    hh = dt[:, None, None]
     phi = w * h
-    t2 = np.sum(phi * phi, axis=1)
-    a1, b1, a2, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
+    t2 = np.einsum("ni,ni->n", phi, phi)
+    a1, b1, _, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
     K = skew(phi)
-    K2 = K @ K
     eye = np.eye(3)
+    K2 = phi[:, :, None] * phi[:, None, :] - t2[:, None, None] * eye  # [φ×]² = φφᵀ - |φ|²I
     R = _prefix(eye + (1.0 - t2[:, None, None] * b1) * K + a1 * K2)  # (n + 1, 3, 3)
-    G1 = eye + a1 * K + b1 * K2
-    G2 = 0.5 * eye + a2 * K + b2 * K2
     Rk = R[:-1]
-    RG1, RG2 = Rk @ G1, Rk @ G2
+    RG = Rk[:, None] @ np.stack([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=1)
+    RG1, RG2 = RG[:, 0], RG[:, 1]
     u = np.einsum("nij,nj->ni", RG1, f)
     wv = np.einsum("nij,nj->ni", RG2, f)
-    sig = _after(dt)[:, None]
     uh = u * h
-    c = uh * sig + wv * h * h
-    T = R[1:] @ (eye - a1 * K + b1 * K2) * hh
-    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)), T)  # (2, 3, 3)
-    n, h2 = len(dt), dt * dt
-    hs = dt * sig[:, 0]
-    G = np.stack([dt, hs]) @ RG1.reshape(n, 9)  # Σ RG1 Δt, Σ RG1 Δt σ
-    F = np.stack([0.5 * h2, h2 * (0.5 * sig[:, 0] + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
+    sig = _after(dt)
+    c = uh * sig[:, None] + wv * h * h
+    # T_j = R_{j+1} J_r(φ_j) Δt_j = R_j Γ1(φ_j) Δt_j (Exp(φ) J_r(φ) = J_l(φ) = Γ1(φ))
+    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)) * h, RG1)  # (2, 3, 3)
+    h2 = dt * dt
+    wts = np.zeros((3, n, 2))  # rows of RG (n, 2, 3, 3) as (2n, 9): RG1_0, RG2_0, RG1_1, ...
+    wts[0, :, 0], wts[1, :, 0], wts[2, :, 1] = dt, dt * sig, h2
+    G = (wts.reshape(3, 2 * n) @ RG.reshape(2 * n, 9)).reshape(3, 3, 3)
+    # Σ RG1 Δt, Σ RG1 Δt σ, Σ RG2 Δt²
+    F = np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
     J = np.zeros((9, 6))
-    J[0:3, 0:3] = -R[-1].T @ T.sum(axis=0)
+    J[0:3, 0:3] = -R[-1].T @ G[0]
     J[3:6, 0:3] = M[0] + F[0].reshape(3, 3)
-    J[3:6, 3:6] = -G[0].reshape(3, 3)
+    J[3:6, 3:6] = -G[0]
     J[6:9, 0:3] = M[1] + F[1].reshape(3, 3)
-    J[6:9, 3:6] = -(G[1] + h2 @ RG2.reshape(n, 9)).reshape(3, 3)
+    J[6:9, 3:6] = -(G[1] + G[2])
     return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
                          np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
 

@@ -1,6 +1,9 @@
 """The INS filters' faster paths against the ones they replace, on random INS states: the
 GNSS update through the rows it reads (``Measurement.reads`` on the INS product space, and
-the Kalman update of a model that ``selects`` them) against the dense sigma-point update."""
+the Kalman update of a model that ``selects`` them) against the dense sigma-point update; the
+error transition's composition by sums against the pairwise one, its F from the cached
+template against the error model (the preintegration against its per-sample sums:
+``tests/nav/test_nav_library.py``)."""
 
 from __future__ import annotations
 
@@ -67,3 +70,46 @@ def test_selects_needs_one_row_read_per_coordinate():
 
 def test_a_lever_arm_declares_no_rows():
     assert gnss_measurement(LAYOUT, position_sigma=1.0, lever_arm=[0.1, 0, 0]).reads is None
+
+
+@pytest.mark.parametrize("N", [1, 2, 7, 10])
+def test_compose_sums_equals_the_pairwise_composition(N):
+    from nav.ins import compose, compose_sums
+
+    rng = np.random.default_rng(N)
+    Phis = np.eye(15) + 0.1 * rng.normal(size=(N, 15, 15))
+    A = rng.normal(size=(N, 15, 15))
+    Qs = A @ np.swapaxes(A, -1, -2)
+    Phi, Q = compose_sums(Phis, Qs)
+    Phi_ref, Q_ref = compose(Phis, Qs)
+    assert _rel(Phi, Phi_ref) < 1e-13 and _rel(Q, Q_ref) < 1e-13
+    batched = compose_sums(np.stack([Phis, Phis[::-1]]), np.stack([Qs, Qs[::-1]]))
+    assert _rel(batched[1][1], compose(Phis[::-1], Qs[::-1])[1]) < 1e-13
+
+
+def test_error_matrices_from_the_cached_template_are_the_error_model():
+    """F of the module docstring, entry by entry, with the Earth rate and Markov biases."""
+    from nav.imu_noise import datasheet_psd
+    from nav.ins import InsModel, error_matrices
+    from nav.quaternion import qto_dcm, skew
+
+    rng = np.random.default_rng(2)
+    psd = datasheet_psd(0.2, 0.05, gyro_bias_instability_deg_h=10.0, gyro_bias_time_s=60.0,
+                        accel_random_walk_mps2_sqrt_h=0.01)
+    er = np.array([0.0, 5e-5, 4e-5])
+    model = InsModel(psd, np.array([0, 0, -9.81]), er)
+    C = np.stack([qto_dcm(qexp(rng.normal(size=3))) for _ in range(4)])
+    w, f = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    F = error_matrices(C, w, f, model)
+    for k in range(4):
+        ref = np.zeros((15, 15))
+        ref[0:3, 3:6] = np.eye(3)
+        ref[3:6, 3:6] = -2.0 * skew(er)
+        ref[3:6, 6:9] = -C[k] @ skew(f[k])
+        ref[3:6, 12:15] = -C[k]
+        ref[6:9, 6:9] = -skew(w[k])
+        ref[6:9, 9:12] = -np.eye(3)
+        ref[9:12, 9:12] = -psd.gyro_bias.rate() * np.eye(3)
+        ref[12:15, 12:15] = -psd.accel_bias.rate() * np.eye(3)
+        np.testing.assert_array_equal(F[k], ref)
+    assert psd.gyro_bias.rate() > 0.0
