@@ -359,19 +359,46 @@ def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Ar
     :math:`p' = p + v\tau + \tfrac12 g\tau^2 + C(q)(\Delta p + J_p\delta b)` - the
     mechanisation itself for the points at ``pre.b``, first order in the bias otherwise."""
     dg, da = _decays(model, pre.tau)
-    db = np.concatenate([X[:, BG] * np.sqrt(dg), X[:, BA] * np.sqrt(da)], axis=1) - pre.b
+    decay = np.repeat([dg, da], 3)
+    db = X[:, BG.start:BA.stop] * np.sqrt(decay) - pre.b
     d = db @ pre.J.T
     q = qmul(X[:, Q], qexp(d[:, :3]) @ qleft_matrix(pre.dq).T)
-    C = dcm_unit(X[:, Q])
+    m = len(X)
+    qq = (X[:, Q, None] * X[:, None, Q]).reshape(m, 16)
+    C = (qq @ _DCM_TABLE).reshape(m, 3, 3)  # C(q), quadratic in a unit q
+    inc = np.empty((m, 3, 2))
+    inc[:, :, 0] = pre.dv + d[:, 3:6]
+    inc[:, :, 1] = pre.dp + d[:, 6:9]
+    r = C @ inc
     g, tau = model.gravity, pre.tau
     Y = X.copy()
-    Y[:, V] = X[:, V] + g * tau + np.einsum("mij,mj->mi", C, pre.dv + d[:, 3:6])
-    Y[:, P] = X[:, P] + X[:, V] * tau + 0.5 * g * tau * tau + np.einsum(
-        "mij,mj->mi", C, pre.dp + d[:, 6:9])
-    Y[:, Q] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    Y[:, BG] *= dg
-    Y[:, BA] *= da
+    Y[:, V] = X[:, V] + g * tau + r[:, :, 0]
+    Y[:, P] = X[:, P] + X[:, V] * tau + 0.5 * g * tau * tau + r[:, :, 1]
+    Y[:, Q] = q / np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
+    Y[:, BG.start:BA.stop] *= decay
     return Y
+
+
+def _dcm_table() -> Array:
+    r"""``T`` (16, 9) with :math:`C(q) = (q q^\top)_{\mathrm{flat}} T` for a unit ``q``:
+    :math:`C_{00} = w^2 + x^2 - y^2 - z^2`, :math:`C_{01} = 2(xy - wz)`, ... (the
+    homogeneous form of :func:`nav.strapdown.dcm_unit`; read-only)."""
+    T = np.zeros((4, 4, 3, 3))
+    w, x, y, z = range(4)
+    for a, b, i, j, c in [
+            (w, w, 0, 0, 1), (x, x, 0, 0, 1), (y, y, 0, 0, -1), (z, z, 0, 0, -1),
+            (w, w, 1, 1, 1), (x, x, 1, 1, -1), (y, y, 1, 1, 1), (z, z, 1, 1, -1),
+            (w, w, 2, 2, 1), (x, x, 2, 2, -1), (y, y, 2, 2, -1), (z, z, 2, 2, 1),
+            (x, y, 0, 1, 2), (w, z, 0, 1, -2), (x, z, 0, 2, 2), (w, y, 0, 2, 2),
+            (x, y, 1, 0, 2), (w, z, 1, 0, 2), (y, z, 1, 2, 2), (w, x, 1, 2, -2),
+            (x, z, 2, 0, 2), (w, y, 2, 0, -2), (y, z, 2, 1, 2), (w, x, 2, 1, 2)]:
+        T[a, b, i, j] = c
+    T = T.reshape(16, 9)
+    T.flags.writeable = False
+    return T
+
+
+_DCM_TABLE = _dcm_table()
 
 
 def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: InsModel, *,

@@ -113,3 +113,36 @@ def test_error_matrices_from_the_cached_template_are_the_error_model():
         ref[12:15, 12:15] = -psd.accel_bias.rate() * np.eye(3)
         np.testing.assert_array_equal(F[k], ref)
     assert psd.gyro_bias.rate() > 0.0
+
+
+def test_the_homogeneous_dcm_is_dcm_unit():
+    from nav.ins import _DCM_TABLE
+    from nav.strapdown import dcm_unit
+
+    q = qexp(np.random.default_rng(4).normal(0, 2.0, (50, 3)))
+    C = ((q[:, :, None] * q[:, None, :]).reshape(50, 16) @ _DCM_TABLE).reshape(50, 3, 3)
+    np.testing.assert_allclose(C, dcm_unit(q), rtol=0, atol=1e-15)
+
+
+def test_one_attitude_paths_of_the_quaternion_space_equal_the_broadcast_ones():
+    """retract / local / mean with one reference attitude (a (m, 4) @ (4, 4) product and the
+    series-free log) against qmul / qlog broadcasting; tiny, zero and near-π rotations."""
+    from nav.quaternion import qconj, qlog, qmul, qnormalize
+    from nav.spaces import UnitQuaternion
+
+    rng = np.random.default_rng(6)
+    uq = UnitQuaternion()
+    x = qexp(rng.normal(size=3))
+    d = np.concatenate([rng.normal(0, 0.05, (20, 3)), rng.normal(0, 1e-9, (5, 3)),
+                        np.zeros((1, 3)), [[np.pi - 1e-6, 0.0, 0.0], [0.0, -3.0, 1.0]]])
+    Y = uq.retract(x[None], d)
+    ref = qnormalize(qmul(x[None], qexp(d)))
+    np.testing.assert_allclose(Y, ref, rtol=0, atol=1e-15)
+    for xx in (x, x[None]):
+        np.testing.assert_allclose(uq.local(xx, Y), qlog(qmul(qconj(xx), Y)), rtol=1e-12,
+                                   atol=1e-15)
+    np.testing.assert_allclose(uq.local(x[None], Y[:26]), d[:26], rtol=1e-9, atol=1e-15)
+    w = np.full(20, 1 / 20)
+    q = uq.mean(Y[:20], w)
+    batched = uq.mean(Y[None, :20], w)[0]  # the broadcasting iteration
+    np.testing.assert_allclose(q * np.sign(q[0]), batched * np.sign(batched[0]), atol=1e-14)
