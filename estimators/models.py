@@ -113,6 +113,28 @@ class Noise:
         return cls(cov, _psd_sqrt(cov))
 
     @classmethod
+    def from_pd(cls, cov: Array) -> Noise | None:
+        """From a (d, d) covariance that is positive definite: ``cov`` symmetrised and its
+        Cholesky factor, or ``None`` when the factorisation fails (then take another
+        constructor).  The checks of the others hold by construction - symmetric (made
+        so), ``cov = L Lᵀ`` (Cholesky) - and the one left, finite, is made on ``cov``
+        and ``L``.  The cheap constructor of a noise built afresh at every step."""
+        cov = np.asarray(cov, dtype=float)
+        if cov.ndim != 2 or cov.shape[0] != cov.shape[1]:
+            raise NoiseError(f"noise covariance must be square, got shape {cov.shape}")
+        cov = 0.5 * (cov + cov.T)
+        try:
+            L = np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            return None
+        if not (np.isfinite(cov).all() and np.isfinite(L).all()):
+            raise NoiseError("noise covariance is not finite")
+        out = object.__new__(cls)
+        object.__setattr__(out, "cov", cov)
+        object.__setattr__(out, "sqrt", L)
+        return out
+
+    @classmethod
     def from_sigmas(cls, sigmas: Array) -> Noise:
         """Independent components with standard deviations ``sigmas`` (finite, >= 0, and
         each σ² a normal float: a σ > 0 whose square underflows is refused)."""

@@ -207,19 +207,24 @@ def _blocks(n: int) -> tuple[Array, Array]:
 
 
 def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel,
-                     along: Array | None = None) -> tuple[Array, Array]:
+                     along: Array | None = None, *, relative: Array | None = None
+                     ) -> tuple[Array, Array]:
     """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc);
     ``along``: the mean's attitudes at every sample when already known, as quaternions
-    (n + 1, 4) or matrices (n + 1, 3, 3)."""
+    (n + 1, 4) or matrices (n + 1, 3, 3); or ``relative``: those attitudes relative to
+    the mean's at the start (n + 1, 3, 3), e.g. :attr:`Preintegrated.R_samples`."""
     starts, mid = _blocks(gyro.shape[0])
     h = np.add.reduceat(dt, starts)
     w = gyro - x[BG]
     f = accel - x[BA]
     m = np.add.reduceat(np.concatenate([w, f], axis=1) * dt[:, None], starts) / h[:, None]
     wm, fm = m[:, :3], m[:, 3:]
-    if along is None:
-        along = attitudes(x[Q], w, dt, model.earth_rate)
-    C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
+    if relative is not None:
+        C = dcm_unit(x[Q]) @ relative[mid]
+    else:
+        if along is None:
+            along = attitudes(x[Q], w, dt, model.earth_rate)
+        C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
     qc = model.qc()
     Phis, Qks = step_matrices(error_matrices(C, wm, fm, model), h, qc)
     Phi, Qe = compose_sums(Phis, Qks)
@@ -287,27 +292,24 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
     K2 = phi[:, :, None] * phi[:, None, :] - t2[:, None, None] * eye  # [φ×]² = φφᵀ - |φ|²I
     R = _prefix(eye + (1.0 - t2[:, None, None] * b1) * K + a1 * K2)  # (n + 1, 3, 3)
     Rk = R[:-1]
-    RG = Rk[:, None] @ np.stack([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=1)
-    RG1, RG2 = RG[:, 0], RG[:, 1]
-    u = np.einsum("nij,nj->ni", RG1, f)
-    wv = np.einsum("nij,nj->ni", RG2, f)
+    RG = Rk @ np.concatenate([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=2)
+    u = np.einsum("nij,nj->ni", RG[:, :, :3], f)  # RG = [R_k Γ1, R_k Γ2] (n, 3, 6)
+    wv = np.einsum("nij,nj->ni", RG[:, :, 3:], f)
     uh = u * h
     sig = _after(dt)
     c = uh * sig[:, None] + wv * h * h
     # T_j = R_{j+1} J_r(φ_j) Δt_j = R_j Γ1(φ_j) Δt_j (Exp(φ) J_r(φ) = J_l(φ) = Γ1(φ))
-    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)) * h, RG1)  # (2, 3, 3)
+    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)) * h, RG)  # (2, 3, 3)
     h2 = dt * dt
-    wts = np.zeros((3, n, 2))  # rows of RG (n, 2, 3, 3) as (2n, 9): RG1_0, RG2_0, RG1_1, ...
-    wts[0, :, 0], wts[1, :, 0], wts[2, :, 1] = dt, dt * sig, h2
-    G = (wts.reshape(3, 2 * n) @ RG.reshape(2 * n, 9)).reshape(3, 3, 3)
-    # Σ RG1 Δt, Σ RG1 Δt σ, Σ RG2 Δt²
-    F = np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
+    G = (np.stack([dt, dt * sig, h2]) @ RG.reshape(n, 18)).reshape(3, 3, 6)
+    G1, G1s, G2h = G[0, :, :3], G[1, :, :3], G[2, :, 3:]  # Σ RΓ1 Δt, Σ RΓ1 Δt σ, Σ RΓ2 Δt²
+    F = _times_skew(np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)]), Rk, f)
     J = np.zeros((9, 6))
-    J[0:3, 0:3] = -R[-1].T @ G[0]
-    J[3:6, 0:3] = M[0] + F[0].reshape(3, 3)
-    J[3:6, 3:6] = -G[0]
-    J[6:9, 0:3] = M[1] + F[1].reshape(3, 3)
-    J[6:9, 3:6] = -(G[1] + G[2])
+    J[0:3, 0:3] = -R[-1].T @ G1
+    J[3:6, 0:3] = M[0] + F[0]
+    J[3:6, 3:6] = -G1
+    J[6:9, 0:3] = M[1] + F[1]
+    J[6:9, 3:6] = -(G1s + G2h)
     return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
                          np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
 
@@ -343,12 +345,25 @@ def _after(A: Array) -> Array:
 
 
 def _cross_sum(A: Array, T: Array) -> Array:
-    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and ``T``
-    (n, 3, 3) -> (g, 3, 3): :math:`([a\times]T)_{il} = \epsilon_{ikm}a_kT_{ml}`, so the
-    sum is :math:`\epsilon_{ikm}Y_{kml}` of the one product :math:`Y = A^\top T`."""
-    Y = (A.T @ T.reshape(len(T), 9)).reshape(-1, 3, 3, 3)
+    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and the
+    first three columns of ``T`` (n, 3, c) -> (g, 3, 3): :math:`([a\times]T)_{il} =
+    \epsilon_{ikm}a_kT_{ml}`, so the sum is :math:`\epsilon_{ikm}Y_{kml}` of the one
+    product :math:`Y = A^\top T`."""
+    Y = (A.T @ T.reshape(len(T), -1)).reshape(-1, 3, 3, T.shape[-1])[..., :3]
     return np.stack([Y[:, 1, 2] - Y[:, 2, 1], Y[:, 2, 0] - Y[:, 0, 2],
                      Y[:, 0, 1] - Y[:, 1, 0]], axis=1)
+
+
+def _times_skew(W: Array, R: Array, f: Array) -> Array:
+    r""":math:`\sum_k w_{gk} R_k[f_k\times]` (g, 3, 3) for weights ``W`` (g, n): with
+    :math:`[f\times]_{jl} = \epsilon_{jml}f_m` it is :math:`\epsilon_{jml}Y_{gijm}` of the
+    one product :math:`Y_{gijm} = \sum_k w_{gk}R_{k,ij}f_{k,m}`."""
+    n, g = len(f), len(W)
+    Y = (R.reshape(n, 9).T @ (W.T[:, :, None] * f[:, None, :]).reshape(n, 3 * g))
+    Y = Y.reshape(3, 3, g, 3)  # (i, j, g, m)
+    out = np.stack([Y[:, 1, :, 2] - Y[:, 2, :, 1], Y[:, 2, :, 0] - Y[:, 0, :, 2],
+                    Y[:, 0, :, 1] - Y[:, 1, :, 0]], axis=-1)  # (i, g, l)
+    return np.swapaxes(out, 0, 1)
 
 
 def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Array:
@@ -412,8 +427,7 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
         dg, da = _decays(model, float(np.sum(dt)))
         pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
                                                             x_mean[BA] * np.sqrt(da)]))
-        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model,
-                                   dcm_unit(x_mean[Q]) @ pre.R_samples)
+        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model, relative=pre.R_samples)
 
         def f(X: Array, u: object) -> Array:
             return propagate_preintegrated(X, pre, model)
@@ -423,4 +437,5 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
         def f(X: Array, u: object) -> Array:
             return propagate(X, gyro, accel, dt, model)
 
-    return Transition(f, Noise(Qe, psd_sqrt(Qe)), additive=True, jacobian=lambda x, u: Phi)
+    return Transition(f, Noise.from_pd(Qe) or Noise(Qe, psd_sqrt(Qe)), additive=True,
+                      jacobian=lambda x, u: Phi)

@@ -146,3 +146,18 @@ def test_one_attitude_paths_of_the_quaternion_space_equal_the_broadcast_ones():
     q = uq.mean(Y[:20], w)
     batched = uq.mean(Y[None, :20], w)[0]  # the broadcasting iteration
     np.testing.assert_allclose(q * np.sign(q[0]), batched * np.sign(batched[0]), atol=1e-14)
+
+
+def test_noise_from_pd_is_from_cov_on_a_positive_definite_covariance():
+    from estimators.models import Noise, NoiseError
+
+    A = np.random.default_rng(8).normal(size=(15, 15))
+    P = A @ A.T + 1e-6 * np.eye(15)
+    fast, ref = Noise.from_pd(P), Noise.from_cov(P)
+    np.testing.assert_allclose(fast.sqrt, ref.sqrt, rtol=0, atol=1e-14 * np.abs(ref.sqrt).max())
+    np.testing.assert_array_equal(fast.cov, fast.cov.T)
+    assert Noise.from_pd(np.diag([1.0, 0.0])) is None  # singular: another constructor
+    with pytest.raises(NoiseError, match="not finite"):
+        Noise.from_pd(np.array([[1.0, np.nan], [np.nan, 1.0]]))
+    with pytest.raises(NoiseError, match="square"):
+        Noise.from_pd(np.ones((2, 3)))
