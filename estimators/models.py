@@ -113,6 +113,28 @@ class Noise:
         return cls(cov, _psd_sqrt(cov))
 
     @classmethod
+    def from_pd(cls, cov: Array) -> Noise | None:
+        """From a (d, d) covariance that is positive definite: ``cov`` symmetrised and its
+        Cholesky factor, or ``None`` when the factorisation fails (then take another
+        constructor).  The checks of the others hold by construction - symmetric (made
+        so), ``cov = L Lᵀ`` (Cholesky) - and the one left, finite, is made on ``cov``
+        and ``L``.  The cheap constructor of a noise built afresh at every step."""
+        cov = np.asarray(cov, dtype=float)
+        if cov.ndim != 2 or cov.shape[0] != cov.shape[1]:
+            raise NoiseError(f"noise covariance must be square, got shape {cov.shape}")
+        cov = 0.5 * (cov + cov.T)
+        try:
+            L = np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            return None
+        if not (np.isfinite(cov).all() and np.isfinite(L).all()):
+            raise NoiseError("noise covariance is not finite")
+        out = object.__new__(cls)
+        object.__setattr__(out, "cov", cov)
+        object.__setattr__(out, "sqrt", L)
+        return out
+
+    @classmethod
     def from_sigmas(cls, sigmas: Array) -> Noise:
         """Independent components with standard deviations ``sigmas`` (finite, >= 0, and
         each σ² a normal float: a σ > 0 whose square underflows is refused)."""
@@ -259,7 +281,9 @@ class Measurement:
     ``reads`` (a declaration, optional): the state coordinates ``h`` depends on (ambient and
     tangent alike; its Jacobian is zero elsewhere); the square-root sigma-point update and
     the EKF's then take structured steps (:mod:`estimators.structured`).  ``None``: no
-    declaration, the dense steps.
+    declaration, the dense steps.  ``selects`` (a declaration, with ``reads``):
+    :math:`h(x) = x_{\\mathrm{reads}}` exactly, so the square-root sigma-point update is the
+    Kalman update on those rows (no points drawn).
     """
 
     h: Callable[[Array], Array]
@@ -267,6 +291,7 @@ class Measurement:
     space: Space = field(default=None)  # type: ignore[assignment]
     jacobian: Callable[[Array], Array] | None = None
     reads: tuple[int, ...] | None = None
+    selects: bool = False
 
     def __post_init__(self) -> None:
         _check_model("measurement", self.h, self.noise, self.jacobian)
@@ -276,6 +301,9 @@ class Measurement:
                 raise ValueError(f"measurement reads must be non-empty rows >= 0, "
                                  f"got {self.reads!r}")
             object.__setattr__(self, "reads", rows)
+        if self.selects and (self.reads is None or len(self.reads) != self.noise.dim):
+            raise ValueError("a measurement that selects rows declares them (reads), one "
+                             "per measured coordinate")
         if self.space is None:
             object.__setattr__(self, "space", Euclidean(self.noise.dim))
         elif self.space.dim != self.noise.dim:

@@ -33,12 +33,14 @@ a rank-``h`` update of ``C`` (:math:`O(h n^2)`, never a downdate; an unscented n
 centre weight is then one rank-one downdate of the whole factor, as in the dense step).
 The tail's mean is unchanged.
 
-Update (``h`` reads rows up to ``r``; a coordinate-wise space, or one whose retraction keeps
-the first ``r + 1`` coordinates when ξ is zero on its first ``r + 1`` rows, declared by a
-``prefix_rows`` attribute: :class:`~estimators.slam_group.SlamGroup`, so the invariant
-filters' updates too).  The points along the columns after ``r`` leave the read rows at
-the mean, so their ``h`` is :math:`h(\hat x)` exactly: ``h`` runs at
-``2(r + 1) + 1`` points, the innovation factor :math:`S_{zz}` is the dense step's, and
+Update (``h`` reads rows up to ``r``; a coordinate-wise space, a :class:`Product` whose
+leading coordinate-wise parts hold rows ``0 .. r`` (an INS state's position and velocity
+before its attitude), or one whose retraction keeps the first ``r + 1`` coordinates when ξ
+is zero on its first ``r + 1`` rows, declared by a ``prefix_rows`` attribute:
+:class:`~estimators.slam_group.SlamGroup`, so the invariant filters' updates too).  The
+points along the columns after ``r`` leave the read rows at the mean, so their ``h`` is
+:math:`h(\hat x)` exactly: ``h`` runs at ``2(r + 1) + 1`` points, the innovation factor
+:math:`S_{zz}` is the dense step's, and
 :math:`P_{xz} = S_{:, \le r} G_z^\top` (:math:`G_z` the half-differences of the rule's
 factor :math:`C_z`, zero after ``r``).  With :math:`W = G_z^\top S_{zz}^{-\top}`
 (``(r + 1) × nz``), :math:`K = S_{:, \le r} W S_{zz}^{-1}` and
@@ -50,7 +52,11 @@ so (Potter's square-root update, restricted to the columns up to ``r``)
     \hat x^+ = \hat x \boxplus S_{:, \le r} W S_{zz}^{-1}\nu,\qquad
     S^+ = [\,S_{:, \le r}\,\mathrm{chol}(I - WW^\top),\ S_{:, > r}\,],
 
-lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls.
+lower triangular with a positive diagonal: :math:`O(n r^2)`, a few batched calls.  A model
+that selects its rows (``Measurement.selects``: :math:`h(x) = x_{\mathrm{reads}}`, a GNSS
+fix of an INS state's position) needs no points: :math:`G_z = S_{\mathrm{reads}, \le r}`
+and :math:`\hat z = \hat x_{\mathrm{reads}}` are what every rule gives for a linear ``h``
+(the Kalman update, in Potter's form).
 :math:`I - WW^\top = (I + G_z^\top M^{-1} G_z)^{-1}` (:math:`M = P_{zz} - G_zG_z^\top
 \succeq R`) is positive definite; a Cholesky factorisation that fails in floating point
 (or any other failure of a structured step) falls back to the dense step, counted in
@@ -100,9 +106,9 @@ from .linalg import (
 from .models import Innovation, Measurement, SqrtGaussian, Transition
 from .rules import CentralDifference, Cubature, Factor, Unscented
 from .sigma_points import factorise
-from .spaces import Euclidean, Space, Wrapped
+from .spaces import Euclidean, Product, Space, Wrapped
 
-__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "predict",
+__all__ = ["FALLBACKS", "coordinatewise", "dense_steps", "enabled", "flat_rows", "predict",
            "rank_update", "static_tail_cov", "update"]
 
 #: Structured steps that fell back to the dense step, by reason.
@@ -147,6 +153,21 @@ def static_tail_cov(P: Array, F: Array, G: Array, Qw: Array, h: int) -> Array:
 def coordinatewise(space: Space) -> bool:
     """``Euclidean`` or ``Wrapped``: every coordinate moves on its own."""
     return type(space) in (Euclidean, Wrapped)
+
+
+def flat_rows(space: Space) -> int:
+    """How many leading coordinates move on their own (ambient = tangent, each retracted by
+    its own ξ row): all of a coordinate-wise space, the leading coordinate-wise parts of a
+    :class:`Product`, else 0."""
+    if coordinatewise(space):
+        return space.dim
+    n = 0
+    if type(space) is Product:
+        for part in space.parts:
+            if not coordinatewise(part):
+                break
+            n += part.dim
+    return n
 
 
 def _head_space(space: Space, h: int) -> Space | None:
@@ -326,27 +347,19 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     if a > n or (isinstance(rule, Unscented) and rule.weights_c(n)[0] < 0.0):
         return None
     prefix = getattr(belief.space, "prefix_rows", None)  # e.g. SlamGroup's
-    if not (coordinatewise(belief.space) or (prefix is not None and a >= prefix)):
+    if not (a <= flat_rows(belief.space) or (prefix is not None and a >= prefix)):
         return None
     S, mean, space = belief.sqrt, belief.mean, belief.space
-    xi, wm = rule.points(n)
-    c = -float(xi[-1, n - 1])
-    lead = S.shape[:-2]
-    dev = np.zeros(lead + (1 + 2 * a, n))
-    dev[..., 1:1 + a, :] = c * swap(S[..., :, :a])
-    dev[..., 1 + a:, :] = -dev[..., 1:1 + a, :]
-    Z = model.h(space.retract(mean[..., None, :], dev))
-    require_finite("measurement model output", Z)
-    Z = Z[..., _pair_index(len(wm), n, np.arange(a)), :]
-    zspace = model.space
-    zhat = zspace.mean(Z, wm)
-    fz = rule.factor(zspace.local(zhat[..., None, :], Z))
-    Gz, _ = _pairs(rule, fz.C, n)
-    nu = zspace.local(zhat, np.asarray(z, dtype=float))
-    Szz = factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
+    if model.selects and type(model.space) is Euclidean:  # h(x) = x[reads]: Kalman's update
+        rows = list(model.reads)  # type: ignore[arg-type]
+        Gz = S[..., rows, :a]
+        nu = np.asarray(z, dtype=float) - mean[..., rows]
+        Szz = factorise("sqrt", Factor(Gz), model.noise.sqrt)
+    else:
+        Gz, nu, Szz = _points_read(rule, belief, model, z, a)
     if not np.all(np.diagonal(Szz, axis1=-2, axis2=-1) > 0.0):
         raise NotPositiveDefiniteError("innovation covariance is singular")
-    Wa = swap(solve_lower(Szz, Gz[..., :, :a]))
+    Wa = swap(solve_lower(Szz, Gz))
     w = solve_lower(Szz, nu)
     try:
         La = chol(np.eye(a) - Wa @ swap(Wa))
@@ -359,6 +372,26 @@ def update(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array
     post[..., :, :a] = Sa @ La
     new = SqrtGaussian(space.retract(mean, matvec(Sa, matvec(Wa, w))), post, space)
     return new, Innovation(nu, Szz, nis_of(w))
+
+
+def _points_read(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array, a: int
+                 ) -> tuple[Array, Array, Array]:
+    """``(G_z, ν, S_zz)`` of the update from the ``2a + 1`` points along the read columns."""
+    S, mean, n = belief.sqrt, belief.mean, belief.dim
+    xi, wm = rule.points(n)
+    c = -float(xi[-1, n - 1])
+    dev = np.zeros(S.shape[:-2] + (1 + 2 * a, n))
+    dev[..., 1:1 + a, :] = c * swap(S[..., :, :a])
+    dev[..., 1 + a:, :] = -dev[..., 1:1 + a, :]
+    Z = model.h(belief.space.retract(mean[..., None, :], dev))
+    require_finite("measurement model output", Z)
+    Z = Z[..., _pair_index(len(wm), n, np.arange(a)), :]
+    zspace = model.space
+    zhat = zspace.mean(Z, wm)
+    fz = rule.factor(zspace.local(zhat[..., None, :], Z))
+    Gz, _ = _pairs(rule, fz.C, n)
+    nu = zspace.local(zhat, np.asarray(z, dtype=float))
+    return Gz[..., :, :a], nu, factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
 
 
 def rank_update(C: Array, V: Array) -> Array:

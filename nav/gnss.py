@@ -16,7 +16,10 @@ With a lever arm :math:`\ell` (body frame, IMU to antenna) and the bias-correcte
     \frac{\partial z_v}{\partial b_g} = \hat C[\ell\times]
     \ (\omega = \tilde\omega - b_g).
 
-Without a lever arm the models are linear (:math:`H = [I\ 0]` blocks).
+Without a lever arm the models are linear (:math:`H = [I\ 0]` blocks) and declare the rows
+they read (``Measurement.reads``, ``selects``: the square-root sigma-point filters then take
+the Kalman update through the position / velocity columns of their factor,
+:mod:`estimators.structured`).
 """
 
 from __future__ import annotations
@@ -104,4 +107,17 @@ def gnss_measurement(layout: InsLayout, *, position_sigma: ArrayLike | None = No
                     H[rows, L.tbg] = C @ skew(arm)
         return H
 
-    return Measurement(h, Noise.from_sigmas(np.concatenate(sig)), jacobian=jacobian)
+    reads = None if arm is not None else _rows_read(L, parts)
+    return Measurement(h, Noise.from_sigmas(np.concatenate(sig)), jacobian=jacobian,
+                       reads=reads, selects=reads is not None)
+
+
+def _rows_read(L: InsLayout, parts: list[str]) -> tuple[int, ...] | None:
+    """The coordinates a measurement without a lever arm reads, when its ambient and
+    tangent columns coincide (else ``None``: no declaration)."""
+    rows: list[int] = []
+    for amb, tan in ((L.p, L.tp) if part == "p" else (L.v, L.tv) for part in parts):
+        if amb != tan:
+            return None
+        rows.extend(range(amb.start, amb.stop))
+    return tuple(rows)

@@ -27,7 +27,8 @@ discretised per block of at most :data:`SUBSTEP_SAMPLES` samples (the block's
 interval-weighted mean rate and specific force, the attitude at its middle sample):
 :math:`\Phi_k = \sum_{i\le3}(F_kh_k)^i/i!`,
 :math:`Q_k = Q_ch_k + \tfrac12(F_kQ_c + Q_cF_k^\top)h_k^2 + \tfrac13F_kQ_cF_k^\top h_k^3`,
-composed over the blocks (:func:`compose`); :math:`\Phi` is the EKF's Jacobian.
+composed over the blocks (:func:`compose_sums`, equal to the pairwise :func:`compose`);
+:math:`\Phi` is the EKF's Jacobian.
 :math:`Q_c = \mathrm{diag}(0, N_a^2, N_g^2, q_{bg}, q_{ba})` (isotropic white noise, so
 :math:`C N_a^2 C^\top = N_a^2 I`).
 """
@@ -63,8 +64,8 @@ LAYOUT = InsLayout(DIM, bg=BG)
 #: At most this many IMU samples per step of the error-state transition.
 SUBSTEP_SAMPLES = 10
 
-__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "error_matrices",
-           "error_transition", "ins_transition", "preintegrate", "propagate",
+__all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "compose_sums",
+           "error_matrices", "error_transition", "ins_transition", "preintegrate", "propagate",
            "propagate_preintegrated", "psd_sqrt"]
 
 
@@ -84,10 +85,26 @@ class InsModel:
                              np.full(3, s.accel_bias.psd())])
         qc.flags.writeable = False
         object.__setattr__(self, "_qc", qc)
+        F0 = np.zeros((DIM, DIM))
+        idx = np.arange(3)
+        F0[idx, 3 + idx] = 1.0
+        if self.earth_rate is not None and np.any(self.earth_rate):
+            F0[TV, TV] = -2.0 * skew(np.asarray(self.earth_rate, dtype=float))
+        F0[6 + idx, 9 + idx] = -1.0
+        F0[9 + idx, 9 + idx] = -s.gyro_bias.rate()
+        F0[12 + idx, 12 + idx] = -s.accel_bias.rate()
+        F0.flags.writeable = False
+        object.__setattr__(self, "_F0", F0)
 
     def qc(self) -> Array:
         """Diagonal of :math:`GQ_cG^\\top` on the 15-d error state (read-only; built once)."""
         return self._qc  # type: ignore[attr-defined]
+
+    def f0(self) -> Array:
+        """The entries of :math:`F` that do not depend on the epoch: the position-velocity
+        identity, the Earth rate, the attitude-gyro-bias coupling and the bias rates
+        (read-only; built once)."""
+        return self._F0  # type: ignore[attr-defined]
 
 
 def psd_sqrt(C: Array) -> Array:
@@ -122,17 +139,10 @@ def propagate(X: Array, gyro: Array, accel: Array, dt: Array, model: InsModel) -
 def error_matrices(C: Array, w: Array, f: Array, model: InsModel) -> Array:
     """Continuous error-state matrices ``F`` (..., 15, 15) at attitude matrices ``C``,
     bias-corrected rates ``w`` and specific forces ``f`` (module docstring)."""
-    F = np.zeros(w.shape[:-1] + (DIM, DIM))
-    idx = np.arange(3)
-    F[..., idx, 3 + idx] = 1.0
+    F = np.array(np.broadcast_to(model.f0(), w.shape[:-1] + (DIM, DIM)))
     F[..., TV, TTH] = -C @ skew(f)
     F[..., TV, TBA] = -C
-    if model.earth_rate is not None and np.any(model.earth_rate):
-        F[..., TV, TV] = -2.0 * skew(np.asarray(model.earth_rate, dtype=float))
     F[..., TTH, TTH] = -skew(w)
-    F[..., 6 + idx, 9 + idx] = -1.0
-    F[..., 9 + idx, 9 + idx] = -model.psd.gyro_bias.rate()
-    F[..., 12 + idx, 12 + idx] = -model.psd.accel_bias.rate()
     return F
 
 
@@ -151,6 +161,25 @@ def compose(Phis: Array, Qs: Array) -> tuple[Array, Array]:
             Qn = np.concatenate([Qn, Qs[..., -1:, :, :]], axis=-3)
         Phis, Qs = P, Qn
     return Phis[..., 0, :, :], Qs[..., 0, :, :]
+
+
+def compose_sums(Phis: Array, Qs: Array) -> tuple[Array, Array]:
+    r""":func:`compose`'s ``(Φ, Q)`` as sums: with the suffix products
+    :math:`\Psi_k = \Phi_{N-1}\cdots\Phi_{k+1}` (one log-depth scan),
+    :math:`\Phi = \Psi_0\Phi_0` and :math:`Q = \sum_k \Psi_k Q_k \Psi_k^\top` (the same
+    products, associated differently: fewer, larger batched calls)."""
+    N = Phis.shape[-3]
+    if N == 1:
+        return Phis[..., 0, :, :], Qs[..., 0, :, :]
+    P = Phis[..., ::-1, :, :].copy()  # P_i = Φ_{N-1} ··· Φ_{N-1-i} after the scan
+    off = 1
+    while off < N:
+        P[..., off:, :, :] = P[..., :-off, :, :] @ P[..., off:, :, :]
+        off *= 2
+    Psi = P[..., N - 2::-1, :, :]  # Ψ_k = P_{N-2-k}, k = 0 .. N-2 (Ψ_{N-1} = I)
+    Q = Qs[..., N - 1, :, :] + np.sum(Psi @ Qs[..., :N - 1, :, :] @ np.swapaxes(Psi, -1, -2),
+                                      axis=-3)
+    return P[..., N - 1, :, :], Q
 
 
 def step_matrices(F: Array, h: Array, qc: Array) -> tuple[Array, Array]:
@@ -178,22 +207,27 @@ def _blocks(n: int) -> tuple[Array, Array]:
 
 
 def error_transition(x: Array, gyro: Array, accel: Array, dt: Array, model: InsModel,
-                     along: Array | None = None) -> tuple[Array, Array]:
+                     along: Array | None = None, *, relative: Array | None = None
+                     ) -> tuple[Array, Array]:
     """``(Φ, Q)`` of the 15-d error state over one epoch along the mean ``x`` (module doc);
     ``along``: the mean's attitudes at every sample when already known, as quaternions
-    (n + 1, 4) or matrices (n + 1, 3, 3)."""
+    (n + 1, 4) or matrices (n + 1, 3, 3); or ``relative``: those attitudes relative to
+    the mean's at the start (n + 1, 3, 3), e.g. :attr:`Preintegrated.R_samples`."""
     starts, mid = _blocks(gyro.shape[0])
     h = np.add.reduceat(dt, starts)
     w = gyro - x[BG]
     f = accel - x[BA]
     m = np.add.reduceat(np.concatenate([w, f], axis=1) * dt[:, None], starts) / h[:, None]
     wm, fm = m[:, :3], m[:, 3:]
-    if along is None:
-        along = attitudes(x[Q], w, dt, model.earth_rate)
-    C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
+    if relative is not None:
+        C = dcm_unit(x[Q]) @ relative[mid]
+    else:
+        if along is None:
+            along = attitudes(x[Q], w, dt, model.earth_rate)
+        C = along[mid] if along.ndim == 3 else dcm_unit(along[mid])
     qc = model.qc()
     Phis, Qks = step_matrices(error_matrices(C, wm, fm, model), h, qc)
-    Phi, Qe = compose(Phis, Qks)
+    Phi, Qe = compose_sums(Phis, Qks)
     return Phi, 0.5 * (Qe + Qe.T)
 
 
@@ -248,36 +282,34 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
     t_k^2`."""
     w = gyro - b[:3]
     f = accel - b[3:]
+    n = len(dt)
     h = dt[:, None]
-    hh = dt[:, None, None]
     phi = w * h
-    t2 = np.sum(phi * phi, axis=1)
-    a1, b1, a2, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
+    t2 = np.einsum("ni,ni->n", phi, phi)
+    a1, b1, _, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
     K = skew(phi)
-    K2 = K @ K
     eye = np.eye(3)
+    K2 = phi[:, :, None] * phi[:, None, :] - t2[:, None, None] * eye  # [φ×]² = φφᵀ - |φ|²I
     R = _prefix(eye + (1.0 - t2[:, None, None] * b1) * K + a1 * K2)  # (n + 1, 3, 3)
-    G1 = eye + a1 * K + b1 * K2
-    G2 = 0.5 * eye + a2 * K + b2 * K2
     Rk = R[:-1]
-    RG1, RG2 = Rk @ G1, Rk @ G2
-    u = np.einsum("nij,nj->ni", RG1, f)
-    wv = np.einsum("nij,nj->ni", RG2, f)
-    sig = _after(dt)[:, None]
+    RG = Rk @ np.concatenate([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=2)
+    u = np.einsum("nij,nj->ni", RG[:, :, :3], f)  # RG = [R_k Γ1, R_k Γ2] (n, 3, 6)
+    wv = np.einsum("nij,nj->ni", RG[:, :, 3:], f)
     uh = u * h
-    c = uh * sig + wv * h * h
-    T = R[1:] @ (eye - a1 * K + b1 * K2) * hh
-    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)), T)  # (2, 3, 3)
-    n, h2 = len(dt), dt * dt
-    hs = dt * sig[:, 0]
-    G = np.stack([dt, hs]) @ RG1.reshape(n, 9)  # Σ RG1 Δt, Σ RG1 Δt σ
-    F = np.stack([0.5 * h2, h2 * (0.5 * sig[:, 0] + dt / 6.0)]) @ (Rk @ skew(f)).reshape(n, 9)
+    sig = _after(dt)
+    c = uh * sig[:, None] + wv * h * h
+    # T_j = R_{j+1} J_r(φ_j) Δt_j = R_j Γ1(φ_j) Δt_j (Exp(φ) J_r(φ) = J_l(φ) = Γ1(φ))
+    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)) * h, RG)  # (2, 3, 3)
+    h2 = dt * dt
+    G = (np.stack([dt, dt * sig, h2]) @ RG.reshape(n, 18)).reshape(3, 3, 6)
+    G1, G1s, G2h = G[0, :, :3], G[1, :, :3], G[2, :, 3:]  # Σ RΓ1 Δt, Σ RΓ1 Δt σ, Σ RΓ2 Δt²
+    F = _times_skew(np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)]), Rk, f)
     J = np.zeros((9, 6))
-    J[0:3, 0:3] = -R[-1].T @ T.sum(axis=0)
-    J[3:6, 0:3] = M[0] + F[0].reshape(3, 3)
-    J[3:6, 3:6] = -G[0].reshape(3, 3)
-    J[6:9, 0:3] = M[1] + F[1].reshape(3, 3)
-    J[6:9, 3:6] = -(G[1] + h2 @ RG2.reshape(n, 9)).reshape(3, 3)
+    J[0:3, 0:3] = -R[-1].T @ G1
+    J[3:6, 0:3] = M[0] + F[0]
+    J[3:6, 3:6] = -G1
+    J[6:9, 0:3] = M[1] + F[1]
+    J[6:9, 3:6] = -(G1s + G2h)
     return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
                          np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
 
@@ -313,12 +345,25 @@ def _after(A: Array) -> Array:
 
 
 def _cross_sum(A: Array, T: Array) -> Array:
-    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and ``T``
-    (n, 3, 3) -> (g, 3, 3): :math:`([a\times]T)_{il} = \epsilon_{ikm}a_kT_{ml}`, so the
-    sum is :math:`\epsilon_{ikm}Y_{kml}` of the one product :math:`Y = A^\top T`."""
-    Y = (A.T @ T.reshape(len(T), 9)).reshape(-1, 3, 3, 3)
+    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and the
+    first three columns of ``T`` (n, 3, c) -> (g, 3, 3): :math:`([a\times]T)_{il} =
+    \epsilon_{ikm}a_kT_{ml}`, so the sum is :math:`\epsilon_{ikm}Y_{kml}` of the one
+    product :math:`Y = A^\top T`."""
+    Y = (A.T @ T.reshape(len(T), -1)).reshape(-1, 3, 3, T.shape[-1])[..., :3]
     return np.stack([Y[:, 1, 2] - Y[:, 2, 1], Y[:, 2, 0] - Y[:, 0, 2],
                      Y[:, 0, 1] - Y[:, 1, 0]], axis=1)
+
+
+def _times_skew(W: Array, R: Array, f: Array) -> Array:
+    r""":math:`\sum_k w_{gk} R_k[f_k\times]` (g, 3, 3) for weights ``W`` (g, n): with
+    :math:`[f\times]_{jl} = \epsilon_{jml}f_m` it is :math:`\epsilon_{jml}Y_{gijm}` of the
+    one product :math:`Y_{gijm} = \sum_k w_{gk}R_{k,ij}f_{k,m}`."""
+    n, g = len(f), len(W)
+    Y = (R.reshape(n, 9).T @ (W.T[:, :, None] * f[:, None, :]).reshape(n, 3 * g))
+    Y = Y.reshape(3, 3, g, 3)  # (i, j, g, m)
+    out = np.stack([Y[:, 1, :, 2] - Y[:, 2, :, 1], Y[:, 2, :, 0] - Y[:, 0, :, 2],
+                    Y[:, 0, :, 1] - Y[:, 1, :, 0]], axis=-1)  # (i, g, l)
+    return np.swapaxes(out, 0, 1)
 
 
 def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Array:
@@ -329,19 +374,46 @@ def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Ar
     :math:`p' = p + v\tau + \tfrac12 g\tau^2 + C(q)(\Delta p + J_p\delta b)` - the
     mechanisation itself for the points at ``pre.b``, first order in the bias otherwise."""
     dg, da = _decays(model, pre.tau)
-    db = np.concatenate([X[:, BG] * np.sqrt(dg), X[:, BA] * np.sqrt(da)], axis=1) - pre.b
+    decay = np.repeat([dg, da], 3)
+    db = X[:, BG.start:BA.stop] * np.sqrt(decay) - pre.b
     d = db @ pre.J.T
     q = qmul(X[:, Q], qexp(d[:, :3]) @ qleft_matrix(pre.dq).T)
-    C = dcm_unit(X[:, Q])
+    m = len(X)
+    qq = (X[:, Q, None] * X[:, None, Q]).reshape(m, 16)
+    C = (qq @ _DCM_TABLE).reshape(m, 3, 3)  # C(q), quadratic in a unit q
+    inc = np.empty((m, 3, 2))
+    inc[:, :, 0] = pre.dv + d[:, 3:6]
+    inc[:, :, 1] = pre.dp + d[:, 6:9]
+    r = C @ inc
     g, tau = model.gravity, pre.tau
     Y = X.copy()
-    Y[:, V] = X[:, V] + g * tau + np.einsum("mij,mj->mi", C, pre.dv + d[:, 3:6])
-    Y[:, P] = X[:, P] + X[:, V] * tau + 0.5 * g * tau * tau + np.einsum(
-        "mij,mj->mi", C, pre.dp + d[:, 6:9])
-    Y[:, Q] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    Y[:, BG] *= dg
-    Y[:, BA] *= da
+    Y[:, V] = X[:, V] + g * tau + r[:, :, 0]
+    Y[:, P] = X[:, P] + X[:, V] * tau + 0.5 * g * tau * tau + r[:, :, 1]
+    Y[:, Q] = q / np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
+    Y[:, BG.start:BA.stop] *= decay
     return Y
+
+
+def _dcm_table() -> Array:
+    r"""``T`` (16, 9) with :math:`C(q) = (q q^\top)_{\mathrm{flat}} T` for a unit ``q``:
+    :math:`C_{00} = w^2 + x^2 - y^2 - z^2`, :math:`C_{01} = 2(xy - wz)`, ... (the
+    homogeneous form of :func:`nav.strapdown.dcm_unit`; read-only)."""
+    T = np.zeros((4, 4, 3, 3))
+    w, x, y, z = range(4)
+    for a, b, i, j, c in [
+            (w, w, 0, 0, 1), (x, x, 0, 0, 1), (y, y, 0, 0, -1), (z, z, 0, 0, -1),
+            (w, w, 1, 1, 1), (x, x, 1, 1, -1), (y, y, 1, 1, 1), (z, z, 1, 1, -1),
+            (w, w, 2, 2, 1), (x, x, 2, 2, -1), (y, y, 2, 2, -1), (z, z, 2, 2, 1),
+            (x, y, 0, 1, 2), (w, z, 0, 1, -2), (x, z, 0, 2, 2), (w, y, 0, 2, 2),
+            (x, y, 1, 0, 2), (w, z, 1, 0, 2), (y, z, 1, 2, 2), (w, x, 1, 2, -2),
+            (x, z, 2, 0, 2), (w, y, 2, 0, -2), (y, z, 2, 1, 2), (w, x, 2, 1, 2)]:
+        T[a, b, i, j] = c
+    T = T.reshape(16, 9)
+    T.flags.writeable = False
+    return T
+
+
+_DCM_TABLE = _dcm_table()
 
 
 def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: InsModel, *,
@@ -355,8 +427,7 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
         dg, da = _decays(model, float(np.sum(dt)))
         pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
                                                             x_mean[BA] * np.sqrt(da)]))
-        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model,
-                                   dcm_unit(x_mean[Q]) @ pre.R_samples)
+        Phi, Qe = error_transition(x_mean, gyro, accel, dt, model, relative=pre.R_samples)
 
         def f(X: Array, u: object) -> Array:
             return propagate_preintegrated(X, pre, model)
@@ -366,4 +437,5 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
         def f(X: Array, u: object) -> Array:
             return propagate(X, gyro, accel, dt, model)
 
-    return Transition(f, Noise(Qe, psd_sqrt(Qe)), additive=True, jacobian=lambda x, u: Phi)
+    return Transition(f, Noise.from_pd(Qe) or Noise(Qe, psd_sqrt(Qe)), additive=True,
+                      jacobian=lambda x, u: Phi)

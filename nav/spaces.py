@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .quaternion import points_and_weights, qconj, qexp, qlog, qmul, qnormalize
+from .quaternion import points_and_weights, qconj, qexp, qleft_matrix, qlog, qmul, qnormalize
 
 Array = NDArray[np.float64]
 
@@ -27,6 +27,25 @@ Array = NDArray[np.float64]
 _FLOOR_ULPS = 8.0
 
 __all__ = ["UnitQuaternion"]
+
+
+def _one(x: Array, y: Array) -> Array | None:
+    """``x`` as one quaternion (4,) when it is one - (4,) or (1, 4) - and ``y`` a plain
+    stack (m, k): then a product with it is one (m, 4) @ (4, 4) call; else ``None``."""
+    if y.ndim != 2 or not (x.ndim == 1 or (x.ndim == 2 and x.shape[0] == 1)):
+        return None
+    return x.reshape(4)
+
+
+def _log_rows(r: Array) -> Array:
+    r""":func:`~nav.quaternion.qlog` of a stack of quaternions (m, 4) in fewer calls: the
+    same :math:`2\,\mathrm{sign}(w)\operatorname{atan2}(\lVert v\rVert, |w|)\,v/\lVert v
+    \rVert` without the small-angle series (``atan2`` keeps full relative accuracy for a
+    small :math:`\lVert v\rVert`, and :math:`v = 0` gives 0)."""
+    v, w = r[:, 1:], r[:, 0]
+    n = np.sqrt(np.einsum("ij,ij->i", v, v))
+    k = np.arctan2(n, np.abs(w)) / np.where(n > 0.0, n, 1.0)
+    return (np.where(w < 0.0, -2.0, 2.0) * k)[:, None] * v
 
 
 @dataclass(frozen=True)
@@ -72,6 +91,11 @@ class UnitQuaternion:
         -------
         ndarray, shape (..., 4)
         """
+        x, delta = np.asarray(x, dtype=float), np.asarray(delta, dtype=float)
+        one = _one(x, delta)
+        if one is not None:  # one attitude, many perturbations
+            e = qexp(delta) @ qleft_matrix(one).T
+            return e / np.sqrt(np.einsum("ij,ij->i", e, e))[:, None]
         return qnormalize(qmul(x, qexp(delta)))
 
     def local(self, x: ArrayLike, y: ArrayLike) -> Array:
@@ -82,6 +106,10 @@ class UnitQuaternion:
 
         Shapes: ``x``, ``y`` (..., 4), broadcast against each other → (..., 3).
         """
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        one = _one(x, y)
+        if one is not None:  # one reference, many attitudes
+            return _log_rows(y @ qleft_matrix(qconj(one)).T)
         return qlog(qmul(qconj(x), y))
 
     def mean(self, points: ArrayLike, weights: ArrayLike) -> Array:
@@ -164,8 +192,8 @@ class UnitQuaternion:
         floor = _FLOOR_ULPS * np.finfo(np.float64).eps * float(np.abs(w).sum())
         prev = step_norm = np.inf
         for _ in range(self.max_iter):
-            step = w @ qlog(qmul(qconj(q), pts))
-            q = qnormalize(qmul(q, qexp(step)))
+            step = w @ _log_rows(pts @ qleft_matrix(qconj(q)).T)
+            q = qnormalize(qleft_matrix(q) @ qexp(step))
             step_norm = float(np.sqrt(step @ step))
             if step_norm < self.tol or (step_norm <= floor and step_norm > 0.5 * prev):
                 return q
