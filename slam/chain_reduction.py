@@ -71,7 +71,8 @@ def _inv_upper(R: Array, what: str) -> Array:
 
 def epoch_factors(local: Array, rhs: Array, base: Array, M: int) -> Array:
     """(M, p, 2n + 1): each epoch's rows ``[local | rhs]`` as one factor, padded with zero
-    rows to the most any epoch has (``p``; zero rows change no QR)."""
+    rows (they change no QR) to the most any epoch has; an epoch with more than 2n rows
+    (the first, with the priors) compressed by QR to 2n, so ``p <= max(2n, rows)``."""
     n2 = local.shape[1]
     order = np.argsort(base, kind="stable")
     b = base[order]
@@ -80,9 +81,19 @@ def epoch_factors(local: Array, rhs: Array, base: Array, M: int) -> Array:
         raise ValueError(f"a row's epoch is past the last ({M - 1})")
     start = np.cumsum(counts) - counts
     slot = np.arange(len(b)) - start[b]
-    dense = np.zeros((M, max(int(counts.max(initial=0)), 1), n2 + 1))
-    dense[b, slot, :n2] = local[order]
-    dense[b, slot, n2] = rhs[order]
+    full = counts > n2
+    p = max(int(counts[~full].max(initial=0)), n2 if full.any() else 1)
+    dense = np.zeros((M, p, n2 + 1))
+    fit = ~full[b]
+    dense[b[fit], slot[fit], :n2] = local[order[fit]]
+    dense[b[fit], slot[fit], n2] = rhs[order[fit]]
+    if full.any():
+        big = np.flatnonzero(full)
+        extra = np.zeros((len(big), int(counts[big].max()), n2 + 1))
+        at = np.searchsorted(big, b[~fit])
+        extra[at, slot[~fit], :n2] = local[order[~fit]]
+        extra[at, slot[~fit], n2] = rhs[order[~fit]]
+        dense[big] = _with_rows(extra, p)
     return dense
 
 

@@ -10,11 +10,13 @@ priors on ``R_0``, ``B_0`` equal to the filters' initial belief.  Its marginals 
 body-frame (right perturbation), the same chart as the filters', so they go into the
 same NEES without conversion.
 
-Marginals, two ways (``marginal_method``):
+Marginals, three ways (``marginal_method``):
 
 - ``"joint"``: GTSAM's ``Marginals`` and one ``jointMarginalCovariance([R_j, B_j])`` per
   epoch (each a walk of the Bayes tree);
-- ``"chain"`` (default): once, by the square-root sweep of :mod:`slam.chain_marginals`
+- ``"reduction"`` (default): once, by square-root cyclic reduction
+  (:mod:`slam.chain_reduction`; batched QR per level, equal to ``"chain"`` to ~1e-11);
+- ``"chain"``: once, by the square-root sweep of :mod:`slam.chain_marginals`
   over the whitened Jacobian (every factor touches one epoch or two consecutive ones; the
   epoch's columns ``[δθ_j, δb_j]``).  On the 120 s star-sensor world it agrees with an
   extended-precision (``longdouble``) inverse of :math:`J^\top J` to 6e-12 of
