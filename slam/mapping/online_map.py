@@ -17,6 +17,8 @@ every 10th epoch adds about half the pass.  Landmark ``j`` of the graph is ``L(j
 
 from __future__ import annotations
 
+import time
+
 import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L
@@ -32,7 +34,8 @@ ONLINE_MAP_STRIDE = 10
 
 class MapSampler:
     """Collects the online map's scores (module docstring) at the sampled graph epochs
-    of a pass over ``n_graph`` epochs, against the true map ``truth`` (M, 2) or (M, 3)."""
+    of a pass over ``n_graph`` epochs, against the true map ``truth`` (M, 2) or (M, 3);
+    ``seconds`` is the time it took (scoring, which an estimator's time leaves out)."""
 
     def __init__(self, truth: Array, n_graph: int, stride: int = ONLINE_MAP_STRIDE):
         if stride < 1:
@@ -41,6 +44,7 @@ class MapSampler:
         self.n_graph, self.stride = n_graph, stride
         self.values = np.full((6, n_graph), np.nan)
         self.dim = self.truth.shape[1]
+        self.seconds = 0.0
 
     def wants(self, e: int) -> bool:
         return e % self.stride == 0 or e == self.n_graph - 1
@@ -49,6 +53,11 @@ class MapSampler:
         """The map's scores after graph epoch ``e``'s update (if ``e`` is sampled)."""
         if not self.wants(e):
             return
+        t0 = time.perf_counter()
+        self._score(e, isam)
+        self.seconds += time.perf_counter() - t0
+
+    def _score(self, e: int, isam: gtsam.ISAM2) -> None:
         ids = [j for j in range(len(self.truth)) if isam.valueExists(L(j))]
         n = len(ids)
         if n == 0:
