@@ -1,6 +1,7 @@
 r"""TUM trajectory files for every run that kept its tracks, with covariance sidecars.
 
-``<name>.tum`` (run 0) and ``<name>.run<r>.tum`` (run r, with ``slam run --tum all``): one
+``<name>.tum`` (run 0) and ``<name>.run<r>.tum`` (run r, with ``slam run --tum all``;
+``truth`` where the run has a truth): one
 line ``t x y z qx qy qz qw`` per pose, the time to the microsecond, after ``#`` comment
 lines that name the world, the estimator, the run, the frames and the number of poses and
 their time base.  Attitude-only kinds (and attitude-only estimators of a kind with
@@ -37,8 +38,12 @@ def suffix(run: int) -> str:
 
 def tracked(result: CampaignResult) -> list[RunOutcome]:
     """The runs that kept full tracks (run 0; every run with ``--tum all``)."""
-    return [o for o in result.outcomes if o.tracks and o.truth is not None
-            and o.times is not None]
+    return [o for o in result.outcomes if o.tracks and o.times is not None]
+
+
+def _names(o: RunOutcome, names: Iterable[str]) -> list[str]:
+    """``truth`` (where the run has one: a recorded log may not) and the tracked ones."""
+    return [*(["truth"] if o.truth is not None else []), *[n for n in names if n in o.tracks]]
 
 
 def header(result: CampaignResult, run: int, name: str, note: str, poses: int) -> str:
@@ -78,7 +83,7 @@ def write_all(result: CampaignResult, out_dir: Path, names: Iterable[str], track
     texts: list[tuple[str, str]] = []
     sidecars: list[str] = []
     for o in tracked(result):
-        for name in ["truth", *[n for n in names if n in o.tracks]]:
+        for name in _names(o, names):
             p, q, cov = track(o, name)
             t = o.times if times is None else times(o, name)
             r, ok = rows(np.asarray(t, dtype=float), p, q)
@@ -99,7 +104,7 @@ def links(result: CampaignResult, names: Iterable[str], what: Note,
     """The report's file list entries of :func:`write_all`'s files."""
     out = []
     for o in tracked(result):
-        for name in ["truth", *[n for n in names if n in o.tracks]]:
+        for name in _names(o, names):
             stem = f"{name}{suffix(o.run)}"
             who = "true" if name == "truth" else name
             out.append((f"{stem}.tum", f"run {o.run}'s {who} {_text(what, name)} (TUM)"))

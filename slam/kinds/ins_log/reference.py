@@ -18,7 +18,10 @@ preintegrated measurement (GTSAM's ``IMUKittiExampleGPS.py`` logic, with the ali
 rotation prior in place of its zero-precision one).  ``gtsam-online`` is the estimate of
 ``X(e)`` right after the update at ``e`` (what a filter would output); the smoothed
 estimate (the reference) is iSAM2's final estimate after two more relinearising updates.
-Position covariances come from the marginals at the fixes that are scored.
+Position covariances come from the marginals at the fixes that are scored (timed); the
+smoothed estimate's pose covariance at every other fix is taken after the timing, for the
+TUM sidecar (``gtsam-online`` has it at the scored fixes only: later marginals are not
+that epoch's).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from gtsam.symbol_shorthand import B, V, X
 from nav.preintegration import combined_params
 from slam.failures import reason
 from slam.kinds.ins_log.log import InsLog
-from slam.kinds.ins_log.run import ONLINE, SMOOTHED, USED, WITHHELD, EstimatorTrack, model_of
+from slam.kinds.ins_log.run import ONLINE, POSE, SMOOTHED, USED, WITHHELD, EstimatorTrack, model_of
 
 Array = np.ndarray
 REFERENCE_FAILURES = (RuntimeError, ValueError)
@@ -75,10 +78,20 @@ def _gnss(log: InsLog, i: int, graph: gtsam.NonlinearFactorGraph) -> None:
                                               np.asarray(log.fix_sv[i], float))))
 
 
-def _position_cov(isam: gtsam.ISAM2, pose: gtsam.Pose3, key: int) -> Array:
-    S = isam.marginalCovariance(key)  # [rot, trans] in the body tangent
-    R = pose.rotation().matrix()
-    return R @ S[3:, 3:] @ R.T
+def _pose_cov(isam: gtsam.ISAM2, pose: gtsam.Pose3, key: int) -> Array:
+    """iSAM2's marginal of ``key`` as the filters' ``[δp (navigation frame), δθ (body)]``
+    covariance: GTSAM's ``[ω, v]`` body tangent moves the pose to ``R Exp(ω)``,
+    ``t + R v`` to first order, so ``[δp; δθ] = J [ω; v]`` with ``J = [[0, R], [I, 0]]``."""
+    S = isam.marginalCovariance(key)
+    J = np.zeros((6, 6))
+    J[:3, 3:] = pose.rotation().matrix()
+    J[3:, :3] = np.eye(3)
+    return J @ S @ J.T
+
+
+def _quat(pose: gtsam.Pose3) -> Array:
+    q = pose.rotation().toQuaternion()
+    return np.array([q.w(), q.x(), q.y(), q.z()])
 
 
 def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
@@ -95,9 +108,10 @@ def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
     F = log.n_fixes
     E = F - a
     arm = np.asarray(log.settings.lever_arm_m, float)
-    p_on, P_on = np.full((E, 3), np.nan), np.full((E, 3, 3), np.nan)
+    p_on, C_on = np.full((E, 3), np.nan), np.full((E, 6, 6), np.nan)
     f_on, f_sm = np.full((E, 3), np.nan), np.full((E, 3), np.nan)
-    p_on[0], P_on[0] = x0[0:3], P0[0:3, 0:3]
+    q_on, q_sm = np.full((E, 4), np.nan), np.full((E, 4), np.nan)
+    p_on[0], C_on[0], q_on[0] = x0[0:3], P0[POSE][:, POSE], x0[6:10]
     f_on[0] = vals.atPose3(X(a)).transformFrom(arm)
     state = (vals.atPose3(X(a)), vals.atVector(V(a)), vals.atConstantBias(B(a)))
     scored = roles != USED
@@ -117,27 +131,30 @@ def _run(log: InsLog, a: int, x0: Array, P0: Array, roles: Array
         isam.update(nf, nv)
         pose = isam.calculateEstimatePose3(X(i))
         state = (pose, isam.calculateEstimateVector(V(i)), isam.calculateEstimateConstantBias(B(i)))
-        p_on[i - a] = pose.translation()
+        p_on[i - a], q_on[i - a] = pose.translation(), _quat(pose)
         f_on[i - a] = pose.transformFrom(arm)
         if scored[i]:
-            P_on[i - a] = _position_cov(isam, pose, X(i))
+            C_on[i - a] = _pose_cov(isam, pose, X(i))
     online_s = time.process_time() - c0
     for _ in range(2):
         isam.update()
     est = isam.calculateEstimate()
-    p_sm, P_sm = np.full((E, 3), np.nan), np.full((E, 3, 3), np.nan)
-    for i in range(a, F):
-        pose = est.atPose3(X(i))
-        p_sm[i - a] = pose.translation()
-        f_sm[i - a] = pose.transformFrom(arm)
-        if scored[i]:
-            P_sm[i - a] = _position_cov(isam, pose, X(i))
+    p_sm, C_sm = np.full((E, 3), np.nan), np.full((E, 6, 6), np.nan)
+    poses = [est.atPose3(X(i)) for i in range(a, F)]
+    for e, pose in enumerate(poses):
+        p_sm[e], q_sm[e] = pose.translation(), _quat(pose)
+        f_sm[e] = pose.transformFrom(arm)
+        if scored[a + e]:
+            C_sm[e] = _pose_cov(isam, pose, X(a + e))
     smooth_s = time.process_time() - c0
+    for e, pose in enumerate(poses):  # the TUM sidecar's other rows, outside the timing
+        if not scored[a + e]:
+            C_sm[e] = _pose_cov(isam, pose, X(a + e))
     empty = np.zeros(0)
-    return (EstimatorTrack(ONLINE, p_on, P_on, empty, empty.astype(np.int64), 3, online_s,
-                           None, f_on),
-            EstimatorTrack(SMOOTHED, p_sm, P_sm, empty, empty.astype(np.int64), 3, smooth_s,
-                           None, f_sm))
+    return (EstimatorTrack(ONLINE, p_on, C_on[:, :3, :3], empty, empty.astype(np.int64), 3,
+                           online_s, None, f_on, q_on, C_on),
+            EstimatorTrack(SMOOTHED, p_sm, C_sm[:, :3, :3], empty, empty.astype(np.int64), 3,
+                           smooth_s, None, f_sm, q_sm, C_sm))
 
 
 def smooth(log: InsLog, a: int, x0: Array, P0: Array, roles: Array

@@ -1,12 +1,23 @@
 """Report of an IMU + GNSS log run: the held-out / outage / NIS / CPU table of every
 estimator (the filters, GTSAM online and smoothed), the settings used (the documented
-default table for KITTI), warnings, and figures (:mod:`slam.kinds.ins_log.figures`)."""
+default table for KITTI), warnings, and figures (:mod:`slam.kinds.ins_log.figures`).
+
+Files: ``<estimator>.tum`` and ``<estimator>.cov.txt`` (:mod:`slam.render.tum`) of every
+estimator: one pose per GNSS fix epoch from the alignment fix on (the filters' estimate
+after the fix's update, or their prediction where the fix is withheld or dropped), the
+IMU's position (not the antenna's) and ``q_nb`` in the log's navigation frame as read
+(ENU, FLU body axes), ``t`` in seconds from the log's first IMU time stamp.  A log has no
+true attitude, so no ``truth.tum``.  ``gtsam-online``'s sidecar rows are NaN except at
+the scored fixes (its marginal at a later time is not that epoch's)."""
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from slam.kind import Deferred
+from slam.render import tum
 from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Section
 from slam.render.tables import MISSING, estimator_entries, num, plain_table, wrap
@@ -112,6 +123,32 @@ def _sections(summary: dict[str, Any]) -> list[Section]:
                         Section("How to read this", text=HOW_TO_READ)) if s is not None]
 
 
+TUM_NOTE = ("x, y, z: the IMU's position (m) in the log's navigation frame, ENU; q = q_nb "
+            "(body forward-left-up to ENU); one pose per GNSS fix epoch from the alignment "
+            "fix on (after the fix's update; the prediction at a withheld or dropped fix); "
+            "t from the log's first IMU time stamp")
+TUM_COV = ("t, then the 6 x 6 covariance of [position (m, ENU), attitude rotation vector "
+           "(rad, body frame: q = q̂ ⊗ Exp(δθ))] row-major")
+
+
+def _online_cov(name: str) -> str:
+    return TUM_COV + ("; NaN except at the scored (withheld or dropped) fixes: iSAM2's "
+                      "marginal there, right after that fix" if name == "gtsam-online" else "")
+
+
+def _track(o: Any, name: str) -> tuple[Any, Any, Any]:
+    tr = o.tracks[name]
+    E = len(tr.p)
+    q = np.full((E, 4), np.nan) if tr.q is None else tr.q
+    return tr.p, q, tr.pose_cov
+
+
+write_tum_files, tum_links = tum.report_files(_track, TUM_NOTE, _online_cov, "pose")
+"""The TUM files and covariance sidecars of the log's estimators (module docstring) and the
+report's entries for them."""
+
+
 REPORT = KindReport("IMU + GNSS log run", _sections,
-                    Deferred("slam.kinds.ins_log.figures:figures"), text_table)
+                    Deferred("slam.kinds.ins_log.figures:figures"), text_table,
+                    write_tum_files, tum_links)
 """The IMU + GNSS log kind's report."""

@@ -36,6 +36,8 @@ Array = NDArray[np.float64]
 ONLINE = "gtsam-online"
 SMOOTHED = REFERENCE
 USED, WITHHELD, DROPPED = 0, 1, 2
+POSE = np.r_[0:3, 6:9]
+"""The tangent rows of ``[δp, δθ]`` in the 15-state error ``[δp, δv, δθ, δb_g, δb_a]``."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,11 @@ class EstimatorTrack:
     failure: str | None = None
     p_fix: Array | None = None
     """The position the fixes measure (the antenna at the lever arm; ``p`` without one)."""
+    q: Array | None = None
+    """The attitude ``q_nb`` (E, 4), scalar first, at the same epochs (for the TUM files)."""
+    pose_cov: Array | None = None
+    """The covariance (E, 6, 6) of ``[δp (m, navigation frame), δθ (rad, body frame:
+    q = q̂ ⊗ Exp(δθ))]`` (NaN where the estimator gives none)."""
 
     @property
     def at_fix(self) -> Array:
@@ -189,7 +196,7 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
             p_fix = rec.means[:, :3] + dcm_unit(rec.means[:, 6:10]) @ arm
     covs = invariant.world_covariances(rec.means, rec.covs) if inv else rec.covs
     return EstimatorTrack(name, rec.means[:, :3], covs[:, :3, :3], nis, nis_fix, dof, cpu,
-                          failure, p_fix)
+                          failure, p_fix, rec.means[:, 6:10], covs[:, POSE][:, :, POSE])
 
 
 def run_once(world: InsLogWorld, run: int, seed_seq: np.random.SeedSequence,

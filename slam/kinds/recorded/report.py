@@ -5,6 +5,8 @@ on the same measurements (a log has no ground truth), figures
     trajectories.png, aligned_map.png, pose_diff.png, map_state.png
     <name>.tum   every estimator's poses (filters at their epochs, the smoother and the
                  odometry at every pose); the time column is the pose index
+    <name>.cov.txt  beside the filters' and the online row's: the pose index, then the
+                 3 x 3 [x, y, heading] covariance row-major, one line per pose of the file
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from slam.kind import Deferred
 from slam.kinds.planar.report import tum_text
 from slam.kinds.recorded.log import DEFAULT_MAX_EPOCH_STEPS
+from slam.render import tum
 from slam.render.decision import decision_sections, decision_text, rank_column
 from slam.render.document import KindReport, Link, Section
 from slam.render.output import write_tum
@@ -142,11 +145,26 @@ def _tracks(result: CampaignResult) -> dict:
     return result.outcomes[0].tracks if result.outcomes else {}
 
 
+def _has_cov(tr) -> bool:
+    return bool(np.any(np.isfinite(np.asarray(tr.pose_cov, dtype=float))))
+
+
+def _rows(tr) -> np.ndarray:
+    """The poses the TUM file holds (finite pose and index), as in :func:`tum_text`."""
+    return np.all(np.isfinite(tr.poses), axis=1) & np.isfinite(np.asarray(tr.steps, float))
+
+
+COV_NOTE = ("t (the pose index), then the 3 x 3 covariance of [x, y, heading] row-major "
+            "(m², m·rad, rad²)")
+
+
 def write_log_tum(result: CampaignResult, out_dir: Path) -> list[str]:
-    """``<name>.tum`` for every estimator of the run; the time column is the pose index."""
+    """``<name>.tum`` for every estimator of the run (the time column is the pose index),
+    and ``<name>.cov.txt`` beside it for those with a pose covariance (the filters and the
+    online row; one line per pose of the TUM file)."""
     def text(name: str, tr) -> str:
         steps = np.asarray(tr.steps, dtype=float)
-        n = int(np.sum(np.all(np.isfinite(tr.poses), axis=1) & np.isfinite(steps)))
+        n = int(np.sum(_rows(tr)))
         which = ("every pose of the chain" if name in (REFERENCE, "odometry") else
                  "the filter's epochs: the poses with sightings, the last pose, and one every "
                  f"{DEFAULT_MAX_EPOCH_STEPS} odometry steps between")
@@ -155,12 +173,27 @@ def write_log_tum(result: CampaignResult, out_dir: Path) -> list[str]:
                         "along the odometry chain (the log has no time stamps); t x y z qx "
                         f"qy qz qw\n{n} poses: {which}")
 
-    return write_tum(Path(out_dir), ((n, text(n, tr)) for n, tr in _tracks(result).items()))
+    tracks = _tracks(result)
+    written = write_tum(Path(out_dir), ((n, text(n, tr)) for n, tr in tracks.items()))
+    for n, tr in tracks.items():
+        if _has_cov(tr):
+            ok = _rows(tr)
+            (Path(out_dir) / f"{n}.cov.txt").write_text(tum.cov_text(
+                np.asarray(tr.steps, float)[ok], np.asarray(tr.pose_cov)[ok],
+                f"{result.summary.get('log', '')}: {n}: covariance per pose of {n}.tum; "
+                f"{COV_NOTE}"), encoding="utf-8")
+            written.append(f"{n}.cov.txt")
+    return written
 
 
 def log_links(result: CampaignResult) -> list[Link]:
-    """The TUM files :func:`write_log_tum` writes."""
-    return [(f"{n}.tum", f"{n}'s trajectory (TUM; time = pose index)") for n in _tracks(result)]
+    """The files :func:`write_log_tum` writes."""
+    out: list[Link] = []
+    for n, tr in _tracks(result).items():
+        out.append((f"{n}.tum", f"{n}'s trajectory (TUM; time = pose index)"))
+        if _has_cov(tr):
+            out.append((f"{n}.cov.txt", f"its covariance per pose ({n}.tum's rows)"))
+    return out
 
 
 REPORT = KindReport("recorded-log run", _sections,

@@ -50,8 +50,18 @@ def test_cli_runs_a_log_and_writes_strict_summary(tmp_path):
     # the figures are checked with every kind's in tests/slam/test_reports.py
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [".slam-output", "report.html", "report.md", "summary.json", "ekf.tum", "srckf.tum",
-         "gtsam.tum", "odometry.tum"])
+         "gtsam.tum", "odometry.tum", "ekf.cov.txt", "srckf.cov.txt"])
     assert (out / "srckf.tum").read_text().startswith("# small.txt: srckf; time column = pose")
+    # the sidecar: one line per pose of the TUM file, the filter's own pose covariance
+    from slam.kinds.recorded.models import run_recorded
+
+    tum = np.loadtxt(out / "srckf.tum")
+    side = np.loadtxt(out / "srckf.cov.txt")
+    np.testing.assert_array_equal(side[:, 0], tum[:, 0])
+    own = run_recorded(log, "srckf", mode="local")
+    np.testing.assert_array_equal(tum[:, 0], own.steps)
+    np.testing.assert_allclose(side[:, 1:].reshape(-1, 3, 3), own.pose_cov, rtol=1e-8,
+                               atol=1e-15)
     assert Path(path).exists()
 
 
