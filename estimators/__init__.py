@@ -1,4 +1,9 @@
-"""Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge)."""
+"""Model-agnostic Gaussian filters (numpy/scipy only; no navigation knowledge).
+
+Importing the package limits BLAS to one thread unless ``NAVFILTERS_BLAS_THREADS`` says
+otherwise (:mod:`estimators.threads`).
+"""
+
 
 from .consistency import anees_band, anees_stats, chi2_band, nees, nis, nis_stats
 from .filters import (
@@ -36,3 +41,7 @@ __all__ = [
     "NoPartitionedModeError", "NonFiniteError", "NoiseError", "SETTINGS", "describe_settings",
     "settings_for", "nees", "nis", "chi2_band", "anees_band", "anees_stats", "nis_stats",
 ]
+
+from .threads import pin_by_default  # noqa: E402  (after numpy and scipy are loaded)
+
+pin_by_default()
