@@ -42,19 +42,20 @@ a batch Levenberg-Marquardt polish.  Two schedules and two preintegration bias p
   and every schedule reaches the same optimum (the correction's error is second order
   in the bias change over an epoch, :math:`(\delta b_g\,\Delta t)^2 \sim 10^{-9}`).
 
-The defaults (``"epochs"``, ``"estimate"``, ``"joint"`` marginals) are the reference as it
-was; ``schedule="keyframes", bias_point="prior"`` costs about a third of it
-(``python -m benchmarks.smoother_speed_nav``) at the optimum of its own graph, whose bias
-points differ, so its scores differ from the default's by up to ~1e-4 relative.
+The old reference (``"epochs"``, ``"estimate"``, ``"joint"`` marginals) is the benchmark's
+``today``; the defaults (``"keyframes"``, ``"prior"``, ``"chain"``) cost under a third of
+it (``python -m benchmarks.smoother_speed_nav``) at the optimum of their own graph, whose
+bias points differ, so their scores differ from the old path's by up to ~1e-4 relative.
 
 iSAM2 factorises by QR: with Cholesky it declares the graph indeterminate within the
 first landmark sightings (information spans ~1e14 from the bias random walk to the
 landmarks), which QR solves without complaint.
-Marginals (``marginal_method``): ``"joint"`` by GTSAM's ``Marginals``, ``"chain"`` once by
-the square-root sweep of :mod:`slam.chain_marginals` (epoch columns ``[X, V, B]``, the
-landmarks global).  On the first 40 epochs of the small test world the chain equals a
-dense QR inverse to 8e-12 of :math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, GTSAM's to 1e-7, so
-switching moves the smoother's ANEES by ~1e-8; ``"joint"`` stays the default.
+Marginals (``marginal_method``): ``"chain"`` (default) once by the square-root sweep of
+:mod:`slam.chain_marginals` (epoch columns ``[X, V, B]``, the landmarks global), or
+``"joint"`` by GTSAM's ``Marginals`` (the old default).  On the first 40 epochs of the
+small test world the chain equals a dense QR inverse to 8e-12 of
+:math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, GTSAM's to 1e-7, so the switch moved the
+smoother's ANEES by ~1e-8.
 ``Pose3`` covariances are ``[rotation, translation]`` in the body frame
 (right perturbation); they are converted to the filters' ``[δp (world), δθ (body)]``
 with :math:`\delta p = R\,\delta t`.
@@ -101,7 +102,7 @@ SCHEDULE = "keyframes"
 BIAS_POINT = "prior"
 #: The marginals' methods (:func:`_marginals`) and the default.
 MARGINAL_METHODS = ("joint", "chain")
-MARGINAL_METHOD = "joint"
+MARGINAL_METHOD = "chain"
 
 
 def _rot(q: Array) -> gtsam.Rot3:
@@ -250,7 +251,48 @@ def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | N
     return graph, isam.calculateEstimate(), seen
 
 
-def _keyframe_estimate(log: DroneLog, params, obs_cov: Array) -> tuple[gtsam.Values, list[int]]:
+def _sightings(log: DroneLog, obs_cov: Array) -> tuple[list, Array]:
+    """Every observation's ``BearingRangeFactor3D`` (noise as :func:`bearing_range_noise`,
+    its math batched over the observations) and its body-frame landmark offset ``r u``
+    (n, 3), built once for the keyframes' iSAM2 and the final graph."""
+    z = np.asarray(log.obs, float).reshape(-1, 3)
+    r, a, e = z.T
+    ca, sa, ce, se = np.cos(a), np.sin(a), np.cos(e), np.sin(e)
+    u = np.column_stack([ce * ca, ce * sa, se])
+    J = np.empty((len(z), 3, 2))
+    J[:, :, 0] = np.column_stack([-ce * sa, ce * ca, np.zeros(len(z))])
+    J[:, :, 1] = np.column_stack([-se * ca, -se * sa, ce])
+    units = [gtsam.Unit3(x) for x in u]
+    Bs = np.array([x.basis() for x in units]).reshape(-1, 3, 2)
+    M = np.swapaxes(Bs, -1, -2) @ J
+    cov = np.zeros((len(z), 3, 3))
+    cov[:, :2, :2] = M @ obs_cov[1:, 1:] @ np.swapaxes(M, -1, -2)
+    cov[:, :2, 2] = M @ obs_cov[1:, 0]
+    cov[:, 2, :2] = cov[:, :2, 2]
+    cov[:, 2, 2] = obs_cov[0, 0]
+    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
+    ids, epochs = np.asarray(log.obs_id, np.int64), np.asarray(log.obs_epoch, np.int64)
+    Cov = gtsam.noiseModel.Gaussian.Covariance
+    factors = [gtsam.BearingRangeFactor3D(X(int(ep)), L(int(j)), unit, float(rng), Cov(c))
+               for ep, j, unit, rng, c in zip(epochs, ids, units, r, cov)]
+    return factors, r[:, None] * u
+
+
+def _add_sightings(log: DroneLog, sl: slice, pose, sightings: tuple[list, Array],
+                   seen: set[int], graph, values) -> None:
+    """The sightings ``sl`` of one epoch (:func:`_sightings`) added to ``graph``; a new
+    landmark starts at its first sighting from ``pose``."""
+    factors, offsets = sightings
+    for i in range(sl.start, sl.stop):
+        graph.add(factors[i])
+        j = int(log.obs_id[i])
+        if j not in seen:
+            seen.add(j)
+            values.insert(L(j), pose.transformFrom(offsets[i]))
+
+
+def _keyframe_estimate(log: DroneLog, params, sightings: tuple[list, Array]
+                       ) -> tuple[gtsam.Values, list[int]]:
     """iSAM2's estimate on the keyframes: every ``KEYFRAME``-th epoch (and the last), one
     ``CombinedImuFactor`` per keyframe interval (preintegrated about the prior bias) and
     the keyframes' sightings, fed ``KEYFRAME_FEED`` keyframes per update."""
@@ -269,12 +311,14 @@ def _keyframe_estimate(log: DroneLog, params, obs_cov: Array) -> tuple[gtsam.Val
         new_f.add(gtsam.CombinedImuFactor(X(e0), V(e0), X(e1), V(e1), B(e0), B(e1), pim))
         pred = pim.predict(gtsam.NavState(pose, vel), bias)
         pose, vel = pred.pose(), pred.velocity()
-        new_v.insert(X(e1), pose)
-        new_v.insert(V(e1), vel)
-        new_v.insert(B(e1), bias)
+        # keyword arguments: pybind11 skips the other overloads by name, not by a failed
+        # conversion (ConstantBias is the 44th of Values.insert's 46)
+        new_v.insert(X(e1), pose3=pose)
+        new_v.insert(V(e1), vector=vel)
+        new_v.insert(B(e1), constant_bias=bias)
         sl = obs_at.get(e1)
         if sl is not None:
-            _landmark_factors(log, e1, sl, pose, obs_cov, seen, new_f, new_v)
+            _add_sightings(log, sl, pose, sightings, seen, new_f, new_v)
         if i % KEYFRAME_FEED and i < len(keys) - 1:
             continue
         isam.update(new_f, new_v)
@@ -290,7 +334,8 @@ def _solve_keyframes(log: DroneLog, params, obs_cov: Array, pims: list
     """The whole graph (``pims`` about the prior bias) with its initial values: the
     keyframes' estimate (:func:`_keyframe_estimate`), the epochs between predicted from
     the keyframe before them, a landmark no keyframe saw from its first sighting."""
-    est, keys = _keyframe_estimate(log, params, obs_cov)
+    sightings = _sightings(log, obs_cov)
+    est, keys = _keyframe_estimate(log, params, sightings)
     is_key = set(keys)
     graph, _ = _prior_factors(log)
     init, obs_at, seen = gtsam.Values(), log.observations_at(), set()
@@ -300,15 +345,15 @@ def _solve_keyframes(log: DroneLog, params, obs_cov: Array, pims: list
         else:
             pred = pims[e - 1].predict(gtsam.NavState(pose, vel), bias)
             pose, vel = pred.pose(), pred.velocity()
-        init.insert(X(e), pose)
-        init.insert(V(e), vel)
-        init.insert(B(e), bias)
+        init.insert(X(e), pose3=pose)
+        init.insert(V(e), vector=vel)
+        init.insert(B(e), constant_bias=bias)
         if e:
             graph.add(gtsam.CombinedImuFactor(X(e - 1), V(e - 1), X(e), V(e), B(e - 1), B(e),
                                               pims[e - 1]))
         sl = obs_at.get(e)
         if sl is not None:
-            _landmark_factors(log, e, sl, pose, obs_cov, seen, graph, init)
+            _add_sightings(log, sl, pose, sightings, seen, graph, init)
     for j in seen:
         if est.exists(L(j)):
             init.update(L(j), est.atPoint3(L(j)))
@@ -395,6 +440,19 @@ class StateRows:
         self.bias[e, :3], self.bias[e, 3:] = bv[3:], bv[:3]
 
 
+def _read_states(values: gtsam.Values, E: int) -> tuple[Array, Array, Array, Array]:
+    """:class:`StateRows`' ``p, v, bias, Rs`` of every epoch, read in bulk (the poses and
+    velocities in key order, ``X(0..E-1)`` and ``V(0..E-1)``: the graph's only ``Pose3``
+    and ``v`` vectors)."""
+    poses = gtsam.utilities.extractPose3(values)
+    vel = gtsam.utilities.extractVectors(values, "v")
+    if poses.shape != (E, 12) or vel.shape != (E, 3):
+        raise ValueError(f"expected {E} poses and velocities, got {poses.shape}, {vel.shape}")
+    bv = np.array([values.atConstantBias(B(e)).vector() for e in range(E)])
+    bias = np.hstack([bv[:, 3:], bv[:, :3]])
+    return poses[:, 9:].copy(), vel.copy(), bias, poses[:, :9].reshape(E, 3, 3).copy()
+
+
 def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
                  sensor_noise_scale: float = 1.0, marginals: bool = True,
                  schedule: str = SCHEDULE, bias_point: str = BIAS_POINT,
@@ -413,10 +471,7 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     graph, values, seen = solve_graph(log, imu_noise_scale=imu_noise_scale,
                                       sensor_noise_scale=sensor_noise_scale,
                                       schedule=schedule, bias_point=bias_point)
-    st = StateRows(E)
-    for e in range(E):
-        st.put(e, values.atPose3(X(e)), values.atVector(V(e)), values.atConstantBias(B(e)))
-    p, v, bias, Rs = st.p, st.v, st.bias, st.Rs
+    p, v, bias, Rs = _read_states(values, E)
     q = dcm_to_q(Rs)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
