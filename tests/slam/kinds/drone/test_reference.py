@@ -100,3 +100,41 @@ def test_default_chain_marginals_equal_gtsam_marginals_at_the_optimum(log):
     # ~1e-7 off a dense QR inverse, the chain ~1e-11: tests/slam/test_chain_marginals.py).
     assert _scaled(joint[0], chain[0]) < 1e-6
     assert _scaled(joint[1], chain[1]) < 1e-6
+
+
+def test_sightings_noise_equals_the_per_observation_noise(log):
+    """The batched sightings' noise against :func:`ref.bearing_range_noise` per observation,
+    and their factors' errors against the old per-epoch construction's."""
+    import gtsam
+
+    from slam.kinds.drone.sightings import sightings_factors
+
+    factors, offsets = sightings_factors(log, log.obs_cov)
+    assert len(factors) == len(log.obs)
+    graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    pose = gtsam.Pose3(gtsam.Rot3.Ypr(0.3, -0.1, 0.2), np.array([1.0, -2.0, 0.5]))
+    for e, sl in log.observations_at().items():
+        ref._landmark_factors(log, e, sl, pose, log.obs_cov, set(), graph, gtsam.Values())
+    worst = 0.0
+    for i, (f, z) in enumerate(zip(factors, log.obs)):
+        want = ref.bearing_range_noise(z, log.obs_cov).covariance()
+        got = f.noiseModel().covariance()
+        worst = max(worst, float(np.max(np.abs(got - want)) / np.max(np.abs(want))))
+        keys = f.keys()
+        assert list(keys) == list(graph.at(i).keys())
+        if not values.exists(keys[0]):
+            values.insert(keys[0], pose)
+        if not values.exists(keys[1]):
+            values.insert(keys[1], pose.transformFrom(offsets[i] * 1.01))
+    assert worst < 1e-14  # measured: 0 (the same operations)
+    for i, f in enumerate(factors):
+        assert f.error(values) == pytest.approx(graph.at(i).error(values), rel=1e-12)
+
+
+def test_the_keyframes_lm_tolerance_stops_at_the_same_optimum(log):
+    """The keyframes schedule's LM stops at 1e-9 (relative decrease), one step before
+    1e-10 would: the same optimum to well within the task's 1e-9 (½χ²)."""
+    assert ref.LM_REL_TOL == {"epochs": 1e-10, "keyframes": 1e-9}
+    g, a, _ = ref.solve_graph(log)
+    _, b, _ = ref.solve_graph(log, lm_rel_tol=1e-10)
+    assert g.error(a) == pytest.approx(g.error(b), rel=1e-11)  # measured 0 (same stop)
