@@ -225,18 +225,19 @@ def gn_reduction(graph: Any, values: Any, params: Any, X: list[int], B: list[int
     before = opt.error()
     opt.iterate()
     current, after = opt.values(), opt.error()
-    covs = None
+    covs, slots = None, _slots(X, B)
     for _ in range(max_iterations - 1):
         if _converged(before, after, rel_tol, abs_tol):
             break
-        local, _, base, rhs = linear_rows(graph.linearize(current), current.dims(),
-                                          _slots(X, B), 6, 0)
+        local, _, base, rhs = linear_rows(graph.linearize(current), current.dims(), slots,
+                                          6, 0)
         levels, R_inv, d = reduce_chain(epoch_factors(local, rhs, base, len(X)))
         delta = chain_solve(levels, R_inv, d)
         step = gtsam.VectorValues()
-        for j, (x, b) in enumerate(zip(X, B)):
-            step.insert(x, delta[j, :3])
-            step.insert(b, delta[j, 3:])
+        put = step.insert
+        for x, b, d_theta, d_bias in zip(X, B, delta[:, :3].copy(), delta[:, 3:].copy()):
+            put(x, d_theta)
+            put(b, d_bias)
         covs = chain_reduction_covariances(levels, R_inv) if covariances else None
         current = current.retract(step)
         before, after = after, graph.error(current)
