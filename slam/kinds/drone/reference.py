@@ -44,9 +44,10 @@ Two schedules and two preintegration bias points:
   in the bias change over an epoch, :math:`(\delta b_g\,\Delta t)^2 \sim 10^{-9}`).
 
 The old reference (``"epochs"``, ``"estimate"``, ``"joint"`` marginals) is the benchmark's
-``today``; the defaults (``"keyframes"``, ``"prior"``, ``"chain"``) cost under a third of
-it (``python -m benchmarks.smoother_speed_nav``) at the optimum of their own graph, whose
-bias points differ, so their scores differ from the old path's by up to ~1e-4 relative.
+``today``; the defaults (``"keyframes"``, ``"prior"``, ``"chain"``) cost about a third of
+it (``python -m benchmarks.smoother_speed_nav``; docs/performance.md) at the optimum of
+their own graph, whose bias points differ, so their scores differ from the old path's by up
+to ~1e-4 relative.
 
 iSAM2 factorises by QR: with Cholesky it declares the graph indeterminate within the
 first landmark sightings (information spans ~1e14 from the bias random walk to the
