@@ -201,9 +201,9 @@ def reduction_covariances(graph: Any, result: Any, X: list[int], B: list[int]) -
 
 
 def _converged(before: float, after: float, rel_tol: float, abs_tol: float) -> bool:
-    """GTSAM's ``checkConvergence`` (no error threshold): the decrease of ½χ² at most
-    ``abs_tol``, or at most ``rel_tol`` of ``before`` (an increase stops too)."""
-    return before - after <= abs_tol or (before - after) / before <= rel_tol
+    """GTSAM's ``checkConvergence`` (error threshold 0): ½χ² zero, or its decrease at most
+    ``abs_tol`` or at most ``rel_tol`` of ``before`` (an increase stops too)."""
+    return after <= 0.0 or before - after <= abs_tol or (before - after) / before <= rel_tol
 
 
 def gn_reduction(graph: Any, values: Any, params: Any, X: list[int], B: list[int],
@@ -211,14 +211,13 @@ def gn_reduction(graph: Any, values: Any, params: Any, X: list[int], B: list[int
                  covariances: bool = True) -> tuple[Any, Array | None]:
     r"""Gauss-Newton with GTSAM's stopping rule (:func:`_converged`): the first step by
     GTSAM's ``GaussNewtonOptimizer`` (``params``), every later one by the reduction of
-    the whitened rows linearised at the current values (:func:`slam.chain_reduction.
-    chain_solve`: the same normal equations, solved by orthogonal transformations), so
-    the levels of the last step give the ``[δθ_j, δb_j]`` marginals with no further
-    linearisation.  Returns the result and those marginals (M, 6, 6), linearised at the
-    values the last step was taken from (None if GTSAM's first step already converged,
-    or not ``covariances``):
-    from the star start the result is two steps away, and the second changes ½χ² by
-    ~1e-7 relative."""
+    the whitened rows linearised at the current values
+    (:func:`~slam.chain_reduction.chain_solve`: the same least-squares problem, solved by
+    orthogonal transformations), so the levels of the last step give the
+    ``[δθ_j, δb_j]`` marginals with no further linearisation.  Returns the result and
+    those marginals (M, 6, 6), linearised at the values the last step was taken from
+    (None if GTSAM's first step already converged, or not ``covariances``): from the star
+    start the result is two steps away, and the second changes ½χ² by ~1e-7 relative."""
     import gtsam
 
     opt = gtsam.GaussNewtonOptimizer(graph, values, params)

@@ -153,3 +153,4 @@ def test_gn_reduction_equals_gtsams_gauss_newton(mode):
     assert sm._converged(10.0, 10.0 - 1e-6, 1e-6, 1e-9)  # relative decrease 1e-7
     assert sm._converged(10.0, 10.5, 1e-6, 1e-9)  # an increase stops
     assert not sm._converged(10.0, 9.0, 1e-6, 1e-9)
+    assert sm._converged(0.0, 0.0, 1e-6, 1e-9)  # no division by a zero ½χ²
