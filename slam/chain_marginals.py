@@ -86,14 +86,15 @@ def linear_rows(linear: Any, dims: Mapping[int, int], slots: Mapping[int, tuple[
 def _triangularise(A: Array, k: int) -> tuple[Array, Array]:
     """QR of the first ``k`` columns of ``A`` (m, k + w) (LAPACK ``geqrf``, ``ormqr``):
     ``(QR, QᵀA[:, k:])``, ``QR`` as ``geqrf`` leaves it (``R`` on and above the
-    diagonal of its first ``min(m, k)`` rows, the reflectors below)."""
-    qr, tau, _, info = lapack.dgeqrf(A[:, :k])
+    diagonal of its first ``min(m, k)`` rows, the reflectors below).  ``A`` is a scratch
+    array: Fortran-ordered, it is overwritten (no copies)."""
+    qr, tau, _, info = lapack.dgeqrf(A[:, :k], overwrite_a=1)
     if info:
         raise np.linalg.LinAlgError(f"geqrf: info {info}")
     rest = A[:, k:]
     if rest.shape[1]:
-        rest, _, info = lapack.dormqr("L", "T", qr, tau, np.asfortranarray(rest),
-                                      lwork=max(1, 64 * rest.shape[1]))
+        rest, _, info = lapack.dormqr("L", "T", qr, tau, rest, lwork=max(1, 64 * rest.shape[1]),
+                                      overwrite_c=1)
         if info:
             raise np.linalg.LinAlgError(f"ormqr: info {info}")
     return qr, rest
@@ -112,28 +113,34 @@ def chain_marginals(local: Array, glob: Array, base: Array, M: int
     n, g = local.shape[1] // 2, glob.shape[1]
     order = np.argsort(base, kind="stable")
     rows = np.hstack([local, glob])[order]
-    groups = np.split(rows, np.searchsorted(base[order], np.arange(1, M)))
+    cuts = np.r_[0, np.searchsorted(base[order], np.arange(1, M)), len(rows)]
     R_jj, R_jy = np.empty((M, n, n)), np.zeros((M, n, n + g))
-    carried_x, carried_l = np.zeros((0, n)), np.zeros((0, g))  # on [x_j], [L]
+    upper = np.triu(np.ones((2 * n, 2 * n)))  # masks the reflectors below R's diagonal
+    carried = np.zeros((0, 2 * n + g))  # on [x_j, (x_{j+1} = 0), L]
     global_rows = []
     for j in range(M):
         last = j == M - 1
-        group, c = groups[j], len(carried_x)
-        stacked = np.zeros((c + len(group), 2 * n + g))
-        stacked[:c, :n], stacked[:c, 2 * n:], stacked[c:] = carried_x, carried_l, group
+        c, m = len(carried), cuts[j + 1] - cuts[j]
+        stacked = np.empty((c + m, 2 * n + g), order="F")
+        stacked[:c], stacked[c:] = carried, rows[cuts[j]:cuts[j + 1]]
         if last:
-            stacked = np.delete(stacked, np.s_[n:2 * n], axis=1)
+            stacked = np.asfortranarray(np.delete(stacked, np.s_[n:2 * n], axis=1))
         k = n if last else 2 * n
         qr, rest = _triangularise(stacked, k)
         r = min(len(qr), k)
-        R_jj[j] = np.triu(qr[:n, :n])
-        if r < n or np.any(np.diagonal(R_jj[j]) == 0.0):
+        if r < n:
             raise np.linalg.LinAlgError(f"epoch {j}: the marginal is indeterminate")
+        R_jj[j] = qr[:n, :n] * upper[:n, :n]
         R_jy[j, :, n:] = rest[:n]
         if not last:
             R_jy[j, :, :n] = qr[:n, n:2 * n]
-            carried_x, carried_l = np.triu(qr[n:r, n:2 * n]), rest[n:r]
+            carried = np.zeros((r - n, 2 * n + g))
+            carried[:, :n] = qr[n:r, n:2 * n] * upper[n:r, n:2 * n]
+            carried[:, 2 * n:] = rest[n:r]
         global_rows.append(rest[r:])
+    bad = np.flatnonzero(np.any(np.diagonal(R_jj, axis1=1, axis2=2) == 0.0, axis=1))
+    if len(bad):
+        raise np.linalg.LinAlgError(f"epoch {bad[0]}: the marginal is indeterminate")
     if g:
         R_LL = np.linalg.qr(np.vstack(global_rows), mode="r")
         if R_LL.shape[0] < g or np.any(np.diagonal(R_LL) == 0.0):
@@ -143,13 +150,15 @@ def chain_marginals(local: Array, glob: Array, base: Array, M: int
     else:
         S_LL = np.zeros((0, 0))
     R_inv = np.linalg.inv(R_jj)
+    K_all = R_inv @ R_jy
+    own = R_inv @ np.swapaxes(R_inv, -1, -2)
     sig, cov_xl = np.empty((M, n, n)), np.empty((M, n, g))
     P = np.zeros((n + g, n + g))  # joint covariance of [x_{j+1}, L]
     P[n:, n:] = S_LL
     for j in range(M - 1, -1, -1):
-        K = R_inv[j] @ R_jy[j]
+        K = K_all[j]
         KP = K @ P
-        sig[j] = R_inv[j] @ R_inv[j].T + KP @ K.T
+        sig[j] = own[j] + KP @ K.T
         cov_xl[j] = -KP[:, n:]
         P[:n, :n], P[:n, n:], P[n:, :n] = sig[j], cov_xl[j], cov_xl[j].T
     return 0.5 * (sig + np.swapaxes(sig, -1, -2)), cov_xl, S_LL

@@ -25,7 +25,8 @@ a velocity ``V(e)`` and an IMU bias ``B(e)`` (``imuBias.ConstantBias``, GTSAM's 
 Solving (:func:`solve_graph`): the epochs are fed to iSAM2 (each new state predicted from
 the previous one by the preintegrated measurement, starting from iSAM2's current estimate
 at each update; each new landmark initialised by inverting its first observation), then
-a batch Levenberg-Marquardt polish.  Two schedules and two preintegration bias points:
+a batch Levenberg-Marquardt polish (relative tolerance per schedule, :data:`LM_REL_TOL`).
+Two schedules and two preintegration bias points:
 
 - ``schedule="epochs"``: ``ISAM_BATCH`` epochs per update (iSAM2's estimate along the
   way is the online one); ``"keyframes"``: iSAM2 only initialises the final solve, on
@@ -42,19 +43,21 @@ a batch Levenberg-Marquardt polish.  Two schedules and two preintegration bias p
   and every schedule reaches the same optimum (the correction's error is second order
   in the bias change over an epoch, :math:`(\delta b_g\,\Delta t)^2 \sim 10^{-9}`).
 
-The defaults (``"epochs"``, ``"estimate"``, ``"joint"`` marginals) are the reference as it
-was; ``schedule="keyframes", bias_point="prior"`` costs about a third of it
-(``python -m benchmarks.smoother_speed_nav``) at the optimum of its own graph, whose bias
-points differ, so its scores differ from the default's by up to ~1e-4 relative.
+The old reference (``"epochs"``, ``"estimate"``, ``"joint"`` marginals) is the benchmark's
+``today``; the defaults (``"keyframes"``, ``"prior"``, ``"chain"``) cost about a third of
+it (``python -m benchmarks.smoother_speed_nav``; docs/performance.md) at the optimum of
+their own graph, whose bias points differ, so their scores differ from the old path's by up
+to ~1e-4 relative.
 
 iSAM2 factorises by QR: with Cholesky it declares the graph indeterminate within the
 first landmark sightings (information spans ~1e14 from the bias random walk to the
 landmarks), which QR solves without complaint.
-Marginals (``marginal_method``): ``"joint"`` by GTSAM's ``Marginals``, ``"chain"`` once by
-the square-root sweep of :mod:`slam.chain_marginals` (epoch columns ``[X, V, B]``, the
-landmarks global).  On the first 40 epochs of the small test world the chain equals a
-dense QR inverse to 8e-12 of :math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, GTSAM's to 1e-7, so
-switching moves the smoother's ANEES by ~1e-8; ``"joint"`` stays the default.
+Marginals (``marginal_method``): ``"chain"`` (default) once by the square-root sweep of
+:mod:`slam.chain_marginals` (epoch columns ``[X, V, B]``, the landmarks global), or
+``"joint"`` by GTSAM's ``Marginals`` (the old default).  On the first 40 epochs of the
+small test world the chain equals a dense QR inverse to 8e-12 of
+:math:`\sqrt{\Sigma_{ii}\Sigma_{kk}}`, GTSAM's to 1e-7, so the switch moved the
+smoother's ANEES by ~1e-8.
 ``Pose3`` covariances are ``[rotation, translation]`` in the body frame
 (right perturbation); they are converted to the filters' ``[δp (world), δθ (body)]``
 with :math:`\delta p = R\,\delta t`.
@@ -74,6 +77,7 @@ from nav.preintegration import combined_params
 from nav.quaternion import dcm_to_q
 from slam.chain_marginals import chain_marginals, jacobian_rows
 from slam.kinds.drone.filtering import DroneEstimate
+from slam.kinds.drone.sightings import add_sightings, sightings_factors
 from slam.kinds.drone.simulate import DroneLog
 from slam.results import REFERENCE
 
@@ -99,9 +103,15 @@ SCHEDULES = ("epochs", "keyframes")
 BIAS_POINTS = ("estimate", "prior")
 SCHEDULE = "keyframes"
 BIAS_POINT = "prior"
+#: The final LM's relative tolerance per schedule (absolute 1e-12).  From the keyframes'
+#: start LM's third step changes ½χ² by 1.3e-10 (drone), 5.4e-10 (drone-large-yaw),
+#: 9.6e-11 (drone-hills), the fourth by < 3e-13: at 1e-9 it stops after the third
+#: (measured against 1e-10 on run 0: ½χ² 2.7e-13 relative, positions 3e-8 m, marginals
+#: 3e-9 of sigma apart).  The epochs schedule (the old reference) keeps 1e-10.
+LM_REL_TOL = {"epochs": 1e-10, "keyframes": 1e-9}
 #: The marginals' methods (:func:`_marginals`) and the default.
 MARGINAL_METHODS = ("joint", "chain")
-MARGINAL_METHOD = "joint"
+MARGINAL_METHOD = "chain"
 
 
 def _rot(q: Array) -> gtsam.Rot3:
@@ -250,7 +260,8 @@ def _solve_isam(log: DroneLog, params, obs_cov: Array, feed: int, pims: list | N
     return graph, isam.calculateEstimate(), seen
 
 
-def _keyframe_estimate(log: DroneLog, params, obs_cov: Array) -> tuple[gtsam.Values, list[int]]:
+def _keyframe_estimate(log: DroneLog, params, sightings: tuple[list, Array]
+                       ) -> tuple[gtsam.Values, list[int]]:
     """iSAM2's estimate on the keyframes: every ``KEYFRAME``-th epoch (and the last), one
     ``CombinedImuFactor`` per keyframe interval (preintegrated about the prior bias) and
     the keyframes' sightings, fed ``KEYFRAME_FEED`` keyframes per update."""
@@ -269,12 +280,14 @@ def _keyframe_estimate(log: DroneLog, params, obs_cov: Array) -> tuple[gtsam.Val
         new_f.add(gtsam.CombinedImuFactor(X(e0), V(e0), X(e1), V(e1), B(e0), B(e1), pim))
         pred = pim.predict(gtsam.NavState(pose, vel), bias)
         pose, vel = pred.pose(), pred.velocity()
-        new_v.insert(X(e1), pose)
-        new_v.insert(V(e1), vel)
-        new_v.insert(B(e1), bias)
+        # keyword arguments: pybind11 skips the other overloads by name, not by a failed
+        # conversion (ConstantBias is the 44th of Values.insert's 46)
+        new_v.insert(X(e1), pose3=pose)
+        new_v.insert(V(e1), vector=vel)
+        new_v.insert(B(e1), constant_bias=bias)
         sl = obs_at.get(e1)
         if sl is not None:
-            _landmark_factors(log, e1, sl, pose, obs_cov, seen, new_f, new_v)
+            add_sightings(log, sl, pose, sightings, seen, new_f, new_v)
         if i % KEYFRAME_FEED and i < len(keys) - 1:
             continue
         isam.update(new_f, new_v)
@@ -290,7 +303,8 @@ def _solve_keyframes(log: DroneLog, params, obs_cov: Array, pims: list
     """The whole graph (``pims`` about the prior bias) with its initial values: the
     keyframes' estimate (:func:`_keyframe_estimate`), the epochs between predicted from
     the keyframe before them, a landmark no keyframe saw from its first sighting."""
-    est, keys = _keyframe_estimate(log, params, obs_cov)
+    sightings = sightings_factors(log, obs_cov)
+    est, keys = _keyframe_estimate(log, params, sightings)
     is_key = set(keys)
     graph, _ = _prior_factors(log)
     init, obs_at, seen = gtsam.Values(), log.observations_at(), set()
@@ -300,36 +314,39 @@ def _solve_keyframes(log: DroneLog, params, obs_cov: Array, pims: list
         else:
             pred = pims[e - 1].predict(gtsam.NavState(pose, vel), bias)
             pose, vel = pred.pose(), pred.velocity()
-        init.insert(X(e), pose)
-        init.insert(V(e), vel)
-        init.insert(B(e), bias)
+        init.insert(X(e), pose3=pose)
+        init.insert(V(e), vector=vel)
+        init.insert(B(e), constant_bias=bias)
         if e:
             graph.add(gtsam.CombinedImuFactor(X(e - 1), V(e - 1), X(e), V(e), B(e - 1), B(e),
                                               pims[e - 1]))
         sl = obs_at.get(e)
         if sl is not None:
-            _landmark_factors(log, e, sl, pose, obs_cov, seen, graph, init)
+            add_sightings(log, sl, pose, sightings, seen, graph, init)
     for j in seen:
         if est.exists(L(j)):
             init.update(L(j), est.atPoint3(L(j)))
     return graph, init, seen
 
 
-def _polish(graph: gtsam.NonlinearFactorGraph, init: gtsam.Values) -> gtsam.Values:
+def _polish(graph: gtsam.NonlinearFactorGraph, init: gtsam.Values, rel_tol: float
+            ) -> gtsam.Values:
     """Batch Levenberg-Marquardt from ``init`` to the optimum of ``graph``."""
     lm_params = gtsam.LevenbergMarquardtParams()
-    lm_params.setRelativeErrorTol(1e-10)
+    lm_params.setRelativeErrorTol(rel_tol)
     lm_params.setAbsoluteErrorTol(1e-12)
     lm_params.setMaxIterations(50)
     return gtsam.LevenbergMarquardtOptimizer(graph, init, lm_params).optimize()
 
 
 def solve_graph(log: DroneLog, *, imu_noise_scale: float = 1.0, sensor_noise_scale: float = 1.0,
-                schedule: str = SCHEDULE, bias_point: str = BIAS_POINT
+                schedule: str = SCHEDULE, bias_point: str = BIAS_POINT,
+                lm_rel_tol: float | None = None
                 ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, set[int]]:
     """The smoother's graph, its optimum and the landmarks seen (module docstring,
     "Solving"): ``schedule`` ``"epochs"`` or ``"keyframes"``, ``bias_point``
-    ``"estimate"`` (``"epochs"`` only) or ``"prior"``."""
+    ``"estimate"`` (``"epochs"`` only) or ``"prior"``; the LM's relative tolerance
+    ``lm_rel_tol`` (None: the schedule's, :data:`LM_REL_TOL`)."""
     if schedule not in SCHEDULES:
         raise ValueError(f"schedule {schedule!r}: one of {', '.join(SCHEDULES)}")
     if bias_point not in BIAS_POINTS or (bias_point, schedule) == ("estimate", "keyframes"):
@@ -342,7 +359,8 @@ def solve_graph(log: DroneLog, *, imu_noise_scale: float = 1.0, sensor_noise_sca
         graph, init, seen = _solve_isam(log, params, obs_cov, ISAM_BATCH, pims)
     else:
         graph, init, seen = _solve_keyframes(log, params, obs_cov, pims or [])
-    return graph, _polish(graph, init), seen
+    tol = LM_REL_TOL[schedule] if lm_rel_tol is None else lm_rel_tol
+    return graph, _polish(graph, init, tol), seen
 
 
 def _world_frame(S: Array, Rs: Array) -> Array:
@@ -395,13 +413,27 @@ class StateRows:
         self.bias[e, :3], self.bias[e, 3:] = bv[3:], bv[:3]
 
 
+def _read_states(values: gtsam.Values, E: int) -> tuple[Array, Array, Array, Array]:
+    """:class:`StateRows`' ``p, v, bias, Rs`` of every epoch, read in bulk (the poses and
+    velocities in key order, ``X(0..E-1)`` and ``V(0..E-1)``: the graph's only ``Pose3``
+    and ``v`` vectors)."""
+    poses = gtsam.utilities.extractPose3(values)
+    vel = gtsam.utilities.extractVectors(values, "v")
+    if poses.shape != (E, 12) or vel.shape != (E, 3):
+        raise ValueError(f"expected {E} poses and velocities, got {poses.shape}, {vel.shape}")
+    bv = np.array([values.atConstantBias(B(e)).vector() for e in range(E)])
+    bias = np.hstack([bv[:, 3:], bv[:, :3]])
+    return poses[:, 9:].copy(), vel.copy(), bias, poses[:, :9].reshape(E, 3, 3).copy()
+
+
 def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
                  sensor_noise_scale: float = 1.0, marginals: bool = True,
                  schedule: str = SCHEDULE, bias_point: str = BIAS_POINT,
-                 marginal_method: str = MARGINAL_METHOD) -> DroneEstimate:
+                 marginal_method: str = MARGINAL_METHOD, lm_rel_tol: float | None = None
+                 ) -> DroneEstimate:
     """Smooth a drone log with GTSAM (iSAM2 over the epochs, then an LM polish;
-    ``schedule`` and ``bias_point`` as :func:`solve_graph`; ``marginal_method``
-    ``"joint"`` or ``"chain"`` as :func:`_marginals`).
+    ``schedule``, ``bias_point`` and ``lm_rel_tol`` as :func:`solve_graph`;
+    ``marginal_method`` as :func:`_marginals`).
 
     ``time_s`` covers the graph, iSAM2 and LM; ``extra_time_s`` the marginals.
     """
@@ -412,11 +444,9 @@ def smooth_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
     E = log.n_epochs
     graph, values, seen = solve_graph(log, imu_noise_scale=imu_noise_scale,
                                       sensor_noise_scale=sensor_noise_scale,
-                                      schedule=schedule, bias_point=bias_point)
-    st = StateRows(E)
-    for e in range(E):
-        st.put(e, values.atPose3(X(e)), values.atVector(V(e)), values.atConstantBias(B(e)))
-    p, v, bias, Rs = st.p, st.v, st.bias, st.Rs
+                                      schedule=schedule, bias_point=bias_point,
+                                      lm_rel_tol=lm_rel_tol)
+    p, v, bias, Rs = _read_states(values, E)
     q = dcm_to_q(Rs)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
