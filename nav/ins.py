@@ -417,21 +417,28 @@ _DCM_TABLE = _dcm_table()
 
 
 def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: InsModel, *,
-                   preintegrated: bool = True) -> Transition:
+                   preintegrated: bool = True, pre: Preintegrated | None = None) -> Transition:
     r"""The epoch's prediction ``f(X, None)`` with additive tangent noise along the mean;
     EKF Jacobian :math:`\Phi`.  Without Earth rate and with ``preintegrated`` the points
     move by the epoch's increments preintegrated once at the mean's biases
-    (:func:`propagate_preintegrated`), else each point is mechanised (:func:`propagate`)."""
+    (:func:`propagate_preintegrated`; ``pre``: these increments already computed, about
+    the reference biases ``pre.b``, e.g. by :func:`nav.preintegrate_stack.preintegrate_stack`),
+    else each point is mechanised (:func:`propagate`)."""
     dt = np.asarray(dt, dtype=np.float64)
     if preintegrated and (model.earth_rate is None or not np.any(model.earth_rate)):
-        dg, da = _decays(model, float(np.sum(dt)))
-        pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
-                                                            x_mean[BA] * np.sqrt(da)]))
+        if pre is None:
+            dg, da = _decays(model, float(np.sum(dt)))
+            pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
+                                                                x_mean[BA] * np.sqrt(da)]))
         Phi, Qe = error_transition(x_mean, gyro, accel, dt, model, relative=pre.R_samples)
+        done = pre
 
         def f(X: Array, u: object) -> Array:
-            return propagate_preintegrated(X, pre, model)
+            return propagate_preintegrated(X, done, model)
     else:
+        if pre is not None:
+            raise ValueError("preintegrated increments given for a mechanised prediction "
+                             "(Earth rate, or preintegrated=False)")
         Phi, Qe = error_transition(x_mean, gyro, accel, dt, model)
 
         def f(X: Array, u: object) -> Array:

@@ -81,6 +81,13 @@ def settings_lines(summary: dict[str, Any]) -> list[str]:
     if imu:
         out.append("IMU model (SI): " + ", ".join(
             f"{k} {v:.4g}" if isinstance(v, float | int) else f"{k} {v}" for k, v in imu.items()))
+    k = st.get("preintegration_fixes")
+    if k is not None:
+        out.append(f"Prediction: the IMU increments of {k} epoch{'s' if k != 1 else ''} "
+                   "preintegrated together about the filter mean's biases at the first "
+                   "(preintegration_fixes; 1: each epoch about its own mean's)."
+                   if k != 1 else "Prediction: each epoch preintegrated about its own "
+                   "mean's biases (preintegration_fixes = 1).")
     for n, d in (st.get("filters") or {}).items():
         if d:
             out.append(f"{n}: {d}")

@@ -24,7 +24,8 @@ from nav.alignment import level, track_heading
 from nav.euler import euler_zyx_to_q
 from nav.gnss import gnss_measurement
 from nav.gravity import gravity_vector
-from nav.ins import LAYOUT, SPACE, InsModel, ins_transition
+from nav.ins import BA, BG, LAYOUT, SPACE, InsModel, Preintegrated, ins_transition
+from nav.preintegrate_stack import pad_epochs, preintegrate_stack
 from nav.quaternion import qto_dcm
 from nav.strapdown import dcm_unit, earth_rate_enu
 from slam.kinds.ins_log import invariant
@@ -150,6 +151,42 @@ def measurement_of(log: InsLog, i: int, cache: dict | None = None) -> tuple[Any,
     return meas, z
 
 
+def uses_preintegration(model: InsModel) -> bool:
+    """The prediction is preintegrated (:func:`nav.ins.ins_transition`'s default without
+    Earth rate)."""
+    return bool(ins_transition.__kwdefaults__["preintegrated"]) and (
+        model.earth_rate is None or not np.any(model.earth_rate))
+
+
+class Ahead:
+    """The increments of ``fixes`` epochs at a time (:mod:`nav.preintegrate_stack`), about
+    the biases of the mean at the first of them; ``fixes = 1``: none (each epoch is
+    preintegrated about its own mean's biases by :func:`nav.ins.ins_transition`)."""
+
+    def __init__(self, log: InsLog, model: InsModel, fixes: int):
+        self.log, self.model, self.fixes = log, model, int(fixes)
+        self.done: dict[int, Preintegrated] = {}
+
+    def of(self, i: int, mean: Array) -> Preintegrated | None:
+        """Epoch ``i``'s increments (``None`` with ``fixes = 1`` or an epoch of no
+        samples), computing the next batch from ``mean`` when ``i`` is not in the last."""
+        if self.fixes <= 1:
+            return None
+        if i not in self.done:
+            stop = min(i + self.fixes, self.log.n_fixes)
+            pieces = [self.log.epochs.of(k) for k in range(i, stop)]
+            g, f, h, counts = pad_epochs(pieces)
+            if counts.min() == 0:
+                return None
+            psd = self.model.psd
+            tau = [float(np.sum(p[2])) for p in pieces]
+            dg = np.sqrt([psd.gyro_bias.decay(t) for t in tau])[:, None]
+            da = np.sqrt([psd.accel_bias.decay(t) for t in tau])[:, None]
+            b = np.concatenate([mean[BG] * dg, mean[BA] * da], axis=1)
+            self.done = dict(zip(range(i, stop), preintegrate_stack(g, f, h, b, counts)))
+        return self.done[i]
+
+
 def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, roles: Array
                ) -> EstimatorTrack:
     """INS filter ``name`` from the alignment fix ``a`` (module docstring); the prior
@@ -165,9 +202,12 @@ def run_filter(world: InsLogWorld, name: str, a: int, x0: Array, P0: Array, role
     models: dict = {}
     inv = invariant.is_invariant(name)
 
+    ahead = Ahead(log, model, log.settings.preintegration_fixes
+                  if uses_preintegration(model) else 1)
+
     def transition(e: int, b: Belief):
         g, f, h = log.epochs.of(a + e)
-        t = ins_transition(b.mean, g, f, h, model)
+        t = ins_transition(b.mean, g, f, h, model, pre=ahead.of(a + e, b.mean))
         return (invariant.group_transition(t, b.mean) if inv else t), None
 
     def correct(e: int, b: Belief):

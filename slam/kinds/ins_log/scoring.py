@@ -187,6 +187,7 @@ def summary_of(world: Any, outcome: RunOutcome, filters: list[str], score_from: 
                      "gnss_position_sigma_m": s.position_sigma_m,
                      "gravity_latitude_deg": math.degrees(s.latitude_rad),
                      "gravity_height_m": s.height_m, "earth_rate": s.earth_rate,
+                     "preintegration_fixes": s.preintegration_fixes,
                      "filters": {n: fl.describe(n) for n in filters}},
         "filters": {n: sc[n].values for n in filters if n in sc},
         "reference": {n: sc[n].values for n in (ONLINE, SMOOTHED) if n in sc},

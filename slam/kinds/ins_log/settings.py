@@ -36,6 +36,9 @@ Sidecar TOML (``FILE.toml`` beside ``FILE.csv``; every key required unless marke
     min_speed_mps = 2.0         # the first fix this fast from the previous one starts
     [filters]
     names = ["ekf", "ckf", "ukf", "srckf"]   # optional (default DEFAULT_FILTERS)
+    preintegration_fixes = 20   # optional (default PREINTEGRATION_FIXES): epochs
+                                # preintegrated together, about the mean's biases at the
+                                # first of them (1: each about its own mean's biases)
     [filters.unscented]                      # needed by ukf / srukf
     alpha = 1.0
     beta = 0.0
@@ -56,6 +59,14 @@ from slam.kinds.recorded.log import LogFormatError
 from worlds.common import TunedFilters
 
 DEFAULT_FILTERS: tuple[str, ...] = ("ekf", "ckf", "ukf", "srckf")
+PREINTEGRATION_FIXES = 20
+"""The epochs (fix to fix) whose IMU increments are preintegrated in one batch
+(:mod:`nav.preintegrate_stack`) about the filter mean's biases at the first of them; every
+sigma point, the mean included, then moves to first order in its bias offset from that
+reference (:func:`nav.ins.propagate_preintegrated`).  1 preintegrates each epoch about its
+own mean's biases (the mean's prediction then is the mechanisation itself).  On KITTI 20
+moves the SRCKF's positions by at most 3.2 mm from 1 (the gyro-bias estimate moves by up
+to 4e-3 rad/s within a batch early in the drive) and costs 23 % less CPU."""
 FILTERS = ("ekf", "ckf", "ukf", "srckf", "srukf", "srcdkf", "cdkf", *VARIANTS)
 """Every filter a log can run: the INS filters and their right-invariant variants
 (:mod:`slam.kinds.ins_log.invariant`)."""
@@ -99,6 +110,7 @@ class LogSettings:
     accel_unit: str = "m/s^2"
     reading: str = ""
     stated: dict[str, Any] = field(default_factory=dict)
+    preintegration_fixes: int = PREINTEGRATION_FIXES
 
 
 KITTI_METADATA = ("BodyPtx", "BodyPty", "BodyPtz", "BodyPrx", "BodyPry", "BodyPrz",
@@ -116,7 +128,8 @@ KITTI_READING = (
     "WGS-84 gravity; no Earth rate; prior: position sigma = the GNSS sigma, velocity 1 m/s, "
     "roll/pitch 5 deg, heading 10 deg, gyro bias 5e-5 rad/s and accelerometer bias "
     "0.1 m/s^2 (the example's bias prior); alignment at the first fix 2 m/s from the "
-    "previous one.")
+    f"previous one; {PREINTEGRATION_FIXES} epochs preintegrated together (the sidecar key "
+    "preintegration_fixes).")
 
 
 KITTI_NOTE = (
@@ -261,4 +274,13 @@ def read_sidecar(path: Path, filters: tuple[str, ...] | None) -> LogSettings:
         ini.number("gyro_bias_sigma_deg_h", 1e-9, 1e6) * deg / 3600.0,
         ini.number("accel_bias_sigma_mg", 1e-9, 1e6) * G0 / 1000.0,
         al.number("min_speed_mps", 1e-3, 1e4), _filters(source, doc, filters),
-        nav, body, gyro_unit, accel_unit, reading=f"sidecar {path.name}", stated=doc)
+        nav, body, gyro_unit, accel_unit, reading=f"sidecar {path.name}", stated=doc,
+        preintegration_fixes=_preintegration_fixes(source, doc))
+
+
+def _preintegration_fixes(source: str, doc: dict[str, Any]) -> int:
+    t = _Table(source, doc, "filters", required=False)
+    v = t.t.get("preintegration_fixes", PREINTEGRATION_FIXES)
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 1000:
+        raise t.error("preintegration_fixes", f"= {v!r}: must be an integer in [1, 1000]")
+    return v

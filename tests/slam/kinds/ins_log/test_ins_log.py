@@ -135,6 +135,10 @@ def _broken(tmp_path, edit, sidecar=None):
     (lambda ls: ls, lambda s: s.replace("arw_deg_sqrt_h = 0.05", "arw_deg_sqrt_h = -1"),
      r"\[imu\] arw_deg_sqrt_h"),
     (lambda ls: ls, lambda s: s.replace("[site]", "[site"), "not valid TOML"),
+    *[(lambda ls: ls, lambda s, v=v: s.replace("[filters]\n",
+                                              f"[filters]\npreintegration_fixes = {v}\n"),
+       r"\[filters\] preintegration_fixes: = .*integer in \[1, 1000\]")
+      for v in ("0", "1001", "2.5", "true", '"20"')],
     (lambda ls: ls[:3], None, "GNSS fixes"),
 ])
 def test_bad_input_names_file_line_or_key(tmp_path, edit, sidecar, match):
