@@ -129,9 +129,13 @@ class BatchMapRecorder:
         if n_lm == 0:
             return out
         start, stop = lay.vehicle_dim, lay.vehicle_dim + n_lm * nd
-        if isinstance(b, SqrtGaussian):
+        if isinstance(b, SqrtGaussian):  # entry by entry: one pass over the rows each
             S = b.sqrt[:, start:stop].reshape(B, n_lm, nd, -1)
-            blocks = np.einsum("blik,bljk->blij", S, S)
+            blocks = np.empty((B, n_lm, nd, nd))
+            for i in range(nd):
+                for j in range(i + 1):
+                    blocks[..., i, j] = np.einsum("blk,blk->bl", S[:, :, i], S[:, :, j])
+                    blocks[..., j, i] = blocks[..., i, j]
         else:
             C = b.cov[:, start:stop, start:stop].reshape(B, n_lm, nd, n_lm, nd)
             idx = np.arange(n_lm)
