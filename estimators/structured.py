@@ -337,16 +337,22 @@ def _tail_block(S: Array, a: Array, h: int) -> Array:
     ar, ai = a.real[..., None, None], a.imag[..., None, None]
     x, y = Sm[..., 0::2, :], Sm[..., 1::2, :]
     M = np.empty(Sm.shape)
-    M[..., 0::2, :] = x * ar - y * ai
-    M[..., 1::2, :] = x * ai + y * ar
+    top, bottom = M[..., 0::2, :], M[..., 1::2, :]
+    np.multiply(x, ar, out=top)
+    top -= y * ai
+    np.multiply(x, ai, out=bottom)
+    bottom += y * ar
     i = np.arange(0, M.shape[-1], 2)
     saa, sab = M[..., i, i], M[..., i, i + 1]
     r = np.hypot(saa, sab)
     c = np.divide(saa, r, out=np.ones_like(r), where=r > 0.0)[..., None, :]
     s = np.divide(sab, r, out=np.zeros_like(r), where=r > 0.0)[..., None, :]
     ca, cb = M[..., :, 0::2], M[..., :, 1::2]
-    new_a, new_b = ca * c + cb * s, cb * c - ca * s
-    M[..., :, 0::2], M[..., :, 1::2] = new_a, new_b
+    new_a = ca * c
+    new_a += cb * s
+    cb *= c
+    cb -= ca * s
+    ca[...] = new_a
     M[..., i, i + 1] = 0.0
     neg = M[..., i + 1, i + 1] < 0.0
     if neg.any():
