@@ -168,6 +168,8 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
     var = np.full((B, E, nvt), np.nan)
     obs = [np.asarray(p.obs, dtype=float) for p in problems]
     truth = None if p0.truth is None else [np.asarray(p.truth, dtype=float) for p in problems]
+    same = truth is not None and len({t.shape for t in truth}) == 1
+    truth_all = np.stack(truth) if same else None  # type: ignore[arg-type]
     maps = BatchMapRecorder(lay, B, E, p0.true_landmarks)
     runs = BatchRuns(B)
     final_ids: list[list[int]] = [[] for _ in range(B)]
@@ -187,7 +189,9 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
         if truth is None:
             return
         k1, d = int(steps[live[0]][e]), p0.position_dims
-        err = np.linalg.norm(b.mean[:, :d] - np.stack([truth[r][k1, :d] for r in live]), axis=1)
+        at = (truth_all[live, k1, :d] if truth_all is not None
+              else np.stack([truth[r][k1, :d] for r in live]))
+        err = np.linalg.norm(b.mean[:, :d] - at, axis=1)
         for j in np.flatnonzero(err > diverge_m):
             if len(live) == 1:
                 raise Divergence(f"vehicle error above {diverge_m} m at step {k1} "
