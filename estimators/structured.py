@@ -445,13 +445,22 @@ def _points_read(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array, 
     dev[..., 1 + a:, :] = -dev[..., 1:1 + a, :]
     Z = model.h(belief.space.retract(mean[..., None, :], dev))
     require_finite("measurement model output", Z)
-    Z = Z[..., _pair_index(len(wm), n, np.arange(a)), :]
+    # the points after column a are all at the mean (row 0): their weights lumped on it
+    # (the rule's first point first: the chart's reference), their pairs one column
+    index = _pair_index(len(wm), n, np.arange(a))
+    order = np.r_[index[0], np.delete(np.arange(Z.shape[-2]), index[0])]
+    lumped = np.bincount(index, weights=wm, minlength=Z.shape[-2])
     zspace = model.space
-    zhat = zspace.mean(Z, wm)
-    fz = rule.factor(zspace.local(zhat[..., None, :], Z))
-    Gz, _ = _pairs(rule, fz.C, n)
+    zhat = zspace.mean(Z[..., order, :], lumped[order])
+    tail = np.zeros(int(n > a), dtype=int)
+    G, rest, c0, sign = _pair_columns(rule, zspace.local(zhat[..., None, :], Z), n,
+                                      np.r_[1:1 + a, tail], np.r_[1 + a:1 + 2 * a, tail])
+    C = [G[..., :a], rest[..., :a]]
+    if n > a:
+        C.append(np.sqrt(n - a) * rest[..., a:])
     nu = zspace.local(zhat, np.asarray(z, dtype=float))
-    return Gz[..., :, :a], nu, factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
+    Szz = factorise("sqrt", Factor(np.concatenate(C, axis=-1), c0, sign), model.noise.sqrt)
+    return G[..., :a], nu, Szz
 
 
 def rank_update(C: Array, V: Array) -> Array:

@@ -167,6 +167,7 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
     covs = np.full((B, E, len(rows), len(rows)), np.nan)
     var = np.full((B, E, nvt), np.nan)
     obs = [np.asarray(p.obs, dtype=float) for p in problems]
+    obs_all = np.stack(obs) if len({o.shape for o in obs}) == 1 else None
     truth = None if p0.truth is None else [np.asarray(p.truth, dtype=float) for p in problems]
     same = truth is not None and len({t.shape for t in truth}) == 1
     truth_all = np.stack(truth) if same else None  # type: ignore[arg-type]
@@ -204,7 +205,10 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
             """The members' observations (B, k·dz) at the offsets ``index`` within their
             own slice of step ``k`` (runs' observation arrays differ in length)."""
             starts = [problems[r].observations[k].start or 0 for r in live]
-            z = np.stack([obs[r][s + index] for r, s in zip(live, starts)])
+            if obs_all is not None:  # one gather for all members
+                z = obs_all[live[:, None], np.add.outer(starts, index)]
+            else:
+                z = np.stack([obs[r][s + index] for r, s in zip(live, starts)])
             return z.reshape(len(live), -1), starts[0] + index
 
         def correct(e: int, b: Belief, live: Array) -> tuple[Belief, list[Innovation]]:
