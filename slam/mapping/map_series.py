@@ -151,10 +151,11 @@ class BatchMapRecorder:
             return out
         means = b.mean[:, lay.vehicle_ambient:lay.vehicle_ambient + n_lm * na
                        ].reshape(B, n_lm, na)
-        err = means[:, known] - self.truth[ids[known]]
+        every = bool(known.all())  # (no copies of the blocks then)
+        err = (means if every else means[:, known]) - self.truth[ids[known]]
         k = int(known.sum())
         if nd == 2:  # nees_series' closed form, on the (B, k) entries
-            P = blocks[:, known]
+            P = blocks if every else blocks[:, known]
             e0, e1 = err[..., 0], err[..., 1]
             nees = nees_2d_entries(e0, e1, P[..., 0, 0], 0.5 * (P[..., 0, 1] + P[..., 1, 0]),
                                    P[..., 1, 1])
