@@ -147,12 +147,12 @@ def advance(runs: BatchRuns, step: Callable[[int, Belief, Array], Belief], e: in
     member and the members that fail alone end there.  Returns the batch after the epoch
     and its surviving members; the epoch's time is shared among them."""
     t0 = time.perf_counter()
-    saved = [list(runs.nis[r]) for r in live]
+    saved = [len(runs.nis[r]) for r in live]  # an epoch only appends to them
     try:
         belief = step(e, belief, live)
     except FAILURES:
         for i, r in enumerate(live):  # undo the batch attempt's innovations
-            runs.nis[r] = saved[i]
+            del runs.nis[r][saved[i]:]
         belief, live = _one_by_one(step, e, belief, live, runs)
     if e > 0 and live.size:
         runs.time[live] += (time.perf_counter() - t0) / live.size

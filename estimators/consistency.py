@@ -46,17 +46,23 @@ def nees_series(err: ArrayLike, cov: ArrayLike) -> Array:
 
 
 def _nees_2d(err: Array, cov: Array, ok: NDArray[np.bool_], out: Array) -> None:
-    r""":func:`nees_series` for 2-D errors in closed form (no LAPACK call per step):
-    eigenvalues :math:`m \pm \sqrt{d^2 + b^2}` with :math:`m, d = (a \pm c)/2` and
-    :math:`e^\top P^{-1} e = (c e_0^2 - 2 b e_0 e_1 + a e_1^2)/(ac - b^2)` for
-    :math:`P = [[a, b], [b, c]]` (the mean of the two off-diagonal entries)."""
+    """:func:`nees_series` for 2-D errors in closed form (:func:`nees_2d_entries`)."""
     e, P = err[ok], cov[ok]
-    a, c, b = P[:, 0, 0], P[:, 1, 1], 0.5 * (P[:, 0, 1] + P[:, 1, 0])
+    out[np.flatnonzero(ok)] = nees_2d_entries(e[:, 0], e[:, 1], P[:, 0, 0],
+                                              0.5 * (P[:, 0, 1] + P[:, 1, 0]), P[:, 1, 1])
+
+
+def nees_2d_entries(e0: Array, e1: Array, a: Array, b: Array, c: Array) -> Array:
+    r"""2-D NEES from the entries (any shape, elementwise) of errors :math:`(e_0, e_1)` and
+    covariances :math:`P = [[a, b], [b, c]]` in closed form (no LAPACK call per step):
+    eigenvalues :math:`m \pm \sqrt{d^2 + b^2}` with :math:`m, d = (a \pm c)/2` and
+    :math:`e^\top P^{-1} e = (c e_0^2 - 2 b e_0 e_1 + a e_1^2)/(ac - b^2)`; NaN where the
+    condition number is above :data:`COND_LIMIT` (finite entries expected)."""
     m, r = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
     good = m - r > (m + r) / COND_LIMIT
     det = np.where(good, a * c - b * b, 1.0)
-    val = (c * e[:, 0] ** 2 - 2.0 * b * e[:, 0] * e[:, 1] + a * e[:, 1] ** 2) / det
-    out[np.flatnonzero(ok)[good]] = val[good]
+    val = (c * e0 ** 2 - 2.0 * b * e0 * e1 + a * e1 ** 2) / det
+    return np.where(good, val, np.nan)
 
 
 def nees(err: ArrayLike, cov: ArrayLike) -> Array:

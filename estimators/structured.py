@@ -262,9 +262,11 @@ def _predict_group(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h
     complex factor on every landmark pair).  So the rule's factor is that of the reduced
     points (the map points at :math:`\hat y`, which leaves the mean unchanged) with its
     map columns :math:`a \odot S_k` - lower triangular again after one Givens rotation per
-    landmark pair (``lower_factor``) - and the other columns (moved, noise, the reduced
+    landmark pair (:func:`_tail_block`) - and the other columns (moved, noise, the reduced
     points' sums: every row) are a rank-:math:`(h + r)` update of it: the top ``h`` rows
-    by one QR, the rest by :func:`rank_update` of the map block."""
+    by one QR, the rest by :func:`rank_update` of the map block.  Only the factor's
+    columns of the moved, noise and one map point pair are formed (:func:`_pair_columns`;
+    every map pair's is the same)."""
     S, mean, space = belief.sqrt, belief.mean, belief.space
     n, q = belief.dim, model.noise.dim
     N = n + q
@@ -275,30 +277,87 @@ def _predict_group(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h
     order = np.r_[index[0], np.delete(np.arange(Y.shape[-2]), index[0])]
     lumped = np.bincount(index, weights=wm, minlength=Y.shape[-2])
     new_mean = space.mean(Y[..., order, :], lumped[order])
-    fac = rule.factor(space.local(new_mean[..., None, :], Y)[..., index, :])
-    G, rest = _pairs(rule, fac.C, N)
-    a = space.tail_gain(mean, new_mean, Y[..., 0, :])[..., None, None]
-    T = np.zeros(S.shape)
-    lm = (S[..., h::2, h:] + 1j * S[..., h + 1::2, h:]) * a
-    T[..., h::2, h:], T[..., h + 1::2, h:] = lm.real, lm.imag
-    T = space.lower_factor(T)
-    E = [G[..., :, n:], rest[..., :, active]]
+    D = space.local(new_mean[..., None, :], Y)
+    k = h + q
+    tail = np.zeros(int(n > h), dtype=int)  # a map pair: both points at ŷ (row 0)
+    G, rest, c0, sign = _pair_columns(rule, D, N, np.r_[1:1 + k, tail],
+                                      np.r_[1 + k:1 + 2 * k, tail])
+    E = [G[..., :, :k], rest[..., :, :k]]
     if n > h:  # the map points' sums: one column, the same for every map column
-        E.append(np.sqrt(n - h) * rest[..., :, h:h + 1])
-    if fac.c0 is not None and fac.sign > 0:
-        E.append(fac.c0[..., None])
-    V = np.concatenate([G[..., :, :h], *E], axis=-1)
+        E.append(np.sqrt(n - h) * rest[..., :, k:])
+    if c0 is not None and sign > 0:
+        E.append(c0[..., None])
+    V = np.concatenate(E, axis=-1)
     Q, R = np.linalg.qr(swap(V[..., :h, :]), mode="complete")
     d = np.where(np.diagonal(R[..., :h, :], axis1=-2, axis2=-1) < 0.0, -1.0, 1.0)[..., None, :]
     out = np.zeros(S.shape)
     out[..., :h, :h] = swap(R[..., :h, :]) * d
     if n > h:
-        VQ = V[..., h:, :] @ Q
-        out[..., h:, :h] = VQ[..., :, :h] * d
-        out[..., h:, h:] = rank_update(T[..., h:, h:], VQ[..., :, h:])
-    if fac.c0 is not None and fac.sign < 0:
-        out = chol_update(out, fac.c0, -1.0)
+        a = space.tail_gain(mean, new_mean, Y[..., 0, :])
+        out[..., h:, :h] = (V[..., h:, :] @ Q[..., :, :h]) * d
+        _update_into(out[..., h:, h:], _tail_block(S, a, h), V[..., h:, :] @ Q[..., :, h:])
+    if c0 is not None and sign < 0:
+        out = chol_update(out, c0, -1.0)
     return SqrtGaussian(new_mean, out, space)
+
+
+def _pair_columns(rule: Any, D: Array, N: int, plus: Array, minus: Array
+                  ) -> tuple[Array, Array, Array | None, float]:
+    """:func:`_pairs` of ``rule.factor`` of an ``N``-dimensional rule's full cloud, for
+    some point pairs only: ``D`` (..., m, d) the deviations of a reduced cloud whose row 0
+    is the rule's centre (its mean for a rule without one), ``plus`` / ``minus`` the rows
+    of the pairs' ``+`` and ``-`` points.  Returns ``(G, rest, c0, sign)``: each pair's two
+    columns, as :func:`_pairs` gives them, and the rule's signed centre term.  The same
+    arithmetic as the full factor's, column by column."""
+    Dp, Dm = D[..., plus, :], D[..., minus, :]
+    if isinstance(rule, CentralDifference):
+        hh = rule.h
+        first = (Dp - Dm) / (2.0 * hh)
+        second = (Dp + Dm - 2.0 * D[..., :1, :]) * (np.sqrt(hh * hh - 1.0) / (2.0 * hh * hh))
+        return swap(first), swap(second), None, 1.0
+    c0, sign = None, 1.0
+    if isinstance(rule, Unscented):
+        w = rule.weights_c(N)
+        scale = np.sqrt(w[1])  # every point but the centre has the same weight
+        if w[0] != 0.0:
+            c0, sign = np.sqrt(abs(w[0])) * D[..., 0, :], float(np.sign(w[0]))
+    else:  # Cubature
+        scale = np.sqrt(1.0 / (2 * N))
+    Cp, Cm = swap(Dp) * scale, swap(Dm) * scale
+    return (Cp - Cm) * _SQRT_HALF, (Cp + Cm) * _SQRT_HALF, c0, sign
+
+
+def _tail_block(S: Array, a: Array, h: int) -> Array:
+    r"""The map block of the factor :math:`a \odot S` (rows and columns from ``h``; each
+    pair of map rows times the complex factor ``a`` (...,)), each diagonal 2×2 block made
+    lower triangular again by one Givens rotation of its column pair (all pairs at once;
+    non-negative diagonal): a fresh C-ordered (..., n - h, n - h) array, what
+    ``lower_factor`` makes of those rows and columns."""
+    Sm = S[..., h:, h:]
+    ar, ai = a.real[..., None, None], a.imag[..., None, None]
+    x, y = Sm[..., 0::2, :], Sm[..., 1::2, :]
+    M = np.empty(Sm.shape)
+    top, bottom = M[..., 0::2, :], M[..., 1::2, :]
+    np.multiply(x, ar, out=top)
+    top -= y * ai
+    np.multiply(x, ai, out=bottom)
+    bottom += y * ar
+    i = np.arange(0, M.shape[-1], 2)
+    saa, sab = M[..., i, i], M[..., i, i + 1]
+    r = np.hypot(saa, sab)
+    c = np.divide(saa, r, out=np.ones_like(r), where=r > 0.0)[..., None, :]
+    s = np.divide(sab, r, out=np.zeros_like(r), where=r > 0.0)[..., None, :]
+    ca, cb = M[..., :, 0::2], M[..., :, 1::2]
+    new_a = ca * c
+    new_a += cb * s
+    cb *= c
+    cb -= ca * s
+    ca[...] = new_a
+    M[..., i, i + 1] = 0.0
+    neg = M[..., i + 1, i + 1] < 0.0
+    if neg.any():
+        M[..., :, 1::2] *= np.where(neg, -1.0, 1.0)[..., None, :]
+    return M
 
 
 def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
@@ -323,7 +382,8 @@ def _predict(rule: Any, belief: SqrtGaussian, model: Transition, u: Any, h: int,
     if n > h:
         B = S[..., h:, :h]
         out[..., h:, :h] = B @ (Q[..., :h, :h] * d)
-        out[..., h:, h:] = rank_update(S[..., h:, h:], B @ Q[..., :h, h:])
+        _update_into(out[..., h:, h:], np.array(S[..., h:, h:], order="C", copy=True),
+                     B @ Q[..., :h, h:])
     if fac.c0 is not None and fac.sign < 0:
         c0 = np.zeros(lead + (n,))
         c0[..., :h] = fac.c0
@@ -385,13 +445,22 @@ def _points_read(rule: Any, belief: SqrtGaussian, model: Measurement, z: Array, 
     dev[..., 1 + a:, :] = -dev[..., 1:1 + a, :]
     Z = model.h(belief.space.retract(mean[..., None, :], dev))
     require_finite("measurement model output", Z)
-    Z = Z[..., _pair_index(len(wm), n, np.arange(a)), :]
+    # the points after column a are all at the mean (row 0): their weights lumped on it
+    # (the rule's first point first: the chart's reference), their pairs one column
+    index = _pair_index(len(wm), n, np.arange(a))
+    order = np.r_[index[0], np.delete(np.arange(Z.shape[-2]), index[0])]
+    lumped = np.bincount(index, weights=wm, minlength=Z.shape[-2])
     zspace = model.space
-    zhat = zspace.mean(Z, wm)
-    fz = rule.factor(zspace.local(zhat[..., None, :], Z))
-    Gz, _ = _pairs(rule, fz.C, n)
+    zhat = zspace.mean(Z[..., order, :], lumped[order])
+    tail = np.zeros(int(n > a), dtype=int)
+    G, rest, c0, sign = _pair_columns(rule, zspace.local(zhat[..., None, :], Z), n,
+                                      np.r_[1:1 + a, tail], np.r_[1 + a:1 + 2 * a, tail])
+    C = [G[..., :a], rest[..., :a]]
+    if n > a:
+        C.append(np.sqrt(n - a) * rest[..., a:])
     nu = zspace.local(zhat, np.asarray(z, dtype=float))
-    return Gz[..., :, :a], nu, factorise("sqrt", Factor(fz.C, fz.c0, fz.sign), model.noise.sqrt)
+    Szz = factorise("sqrt", Factor(np.concatenate(C, axis=-1), c0, sign), model.noise.sqrt)
+    return G[..., :a], nu, Szz
 
 
 def rank_update(C: Array, V: Array) -> Array:
@@ -405,7 +474,22 @@ def rank_update(C: Array, V: Array) -> Array:
     n, k = C.shape[-1], V.shape[-1]
     L = np.array(np.broadcast_to(C, lead + (n, n)), dtype=float, order="C", copy=True)
     X = np.array(np.broadcast_to(V, lead + (n, k)), dtype=float, order="C", copy=True)
-    L2, X2 = L.reshape(-1, n, n), X.reshape(-1, n, k)
+    out = np.empty(L.shape)
+    _update_into(out, L, X)
+    return out
+
+
+def _update_into(out: Array, L: Array, X: Array) -> None:
+    """``out[...] =`` :func:`rank_update` ``(L, X)``, overwriting ``L`` and ``X`` (fresh
+    arrays the caller owns, C-ordered; an unbatched ``L`` takes
+    :func:`chol_update_sweep`)."""
+    if L.ndim == 2:
+        out[...] = chol_update_sweep(L, X, 1.0)
+        return
+    n = L.shape[-1]
+    if not (L.flags.c_contiguous and X.flags.c_contiguous):
+        raise ValueError("the sweep works in place on C-ordered arrays")
+    L2, X2 = L.reshape(-1, n, n), X.reshape(-1, n, X.shape[-1])
     nb = max(1, min(16, n))
     for i in range(L2.shape[0]):
         R, _, _, info = lapack.dtpqrt(0, nb, L2[i].T, X2[i].T, overwrite_a=1, overwrite_b=1)
@@ -413,4 +497,4 @@ def rank_update(C: Array, V: Array) -> Array:
             raise np.linalg.LinAlgError(f"triangular-pentagonal QR failed (info {info})")
         L2[i] = R.T
     d = np.diagonal(L, axis1=-2, axis2=-1)
-    return L * np.where(d < 0.0, -1.0, 1.0)[..., None, :]
+    np.multiply(L, np.where(d < 0.0, -1.0, 1.0)[..., None, :], out=out)

@@ -104,6 +104,30 @@ def _structure(problem: SlamProblem, step: int, slot_ids: list[int]
     return matched, new, late, ids
 
 
+def _twin_classes(problems: Sequence[SlamProblem]) -> Array:
+    """A class per problem: problems of one class have the same epoch steps and see the same
+    landmark ids at each (so each epoch's layout key in :func:`_run_group` is the same)."""
+    seen: dict[tuple, int] = {}
+    out = np.empty(len(problems), dtype=int)
+    for i, p in enumerate(problems):
+        st = np.asarray(p.steps, dtype=np.int64)
+        at = (p.observations.get(int(k)) for k in st)
+        key = (st.tobytes(), *(b"" if sl is None else
+                               np.asarray(p.obs_id[sl], dtype=np.int64).tobytes() for sl in at))
+        out[i] = seen.setdefault(key, len(seen))
+    return out
+
+
+def _twins(classes: Array) -> list[list[int]]:
+    """The positions of each class in ``classes``, in order of first appearance."""
+    if classes.size and classes.min() == classes.max():
+        return [list(range(classes.size))]
+    out: dict[int, list[int]] = {}
+    for j, c in enumerate(classes.tolist()):
+        out.setdefault(c, []).append(j)
+    return list(out.values())
+
+
 def _stack_inputs(inputs: list[Any]) -> Any:
     """The members' inputs as one batch: arrays stacked, tuples of arrays stacked part by
     part."""
@@ -143,10 +167,14 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
     covs = np.full((B, E, len(rows), len(rows)), np.nan)
     var = np.full((B, E, nvt), np.nan)
     obs = [np.asarray(p.obs, dtype=float) for p in problems]
+    obs_all = np.stack(obs) if len({o.shape for o in obs}) == 1 else None
     truth = None if p0.truth is None else [np.asarray(p.truth, dtype=float) for p in problems]
+    same = truth is not None and len({t.shape for t in truth}) == 1
+    truth_all = np.stack(truth) if same else None  # type: ignore[arg-type]
     maps = BatchMapRecorder(lay, B, E, p0.true_landmarks)
     runs = BatchRuns(B)
     final_ids: list[list[int]] = [[] for _ in range(B)]
+    twin = _twin_classes(problems)
 
     def transition(e: int, b: Belief, live: Array):
         k0, k1 = int(steps[live[0]][e - 1]), int(steps[live[0]][e])
@@ -162,7 +190,9 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
         if truth is None:
             return
         k1, d = int(steps[live[0]][e]), p0.position_dims
-        err = np.linalg.norm(b.mean[:, :d] - np.stack([truth[r][k1, :d] for r in live]), axis=1)
+        at = (truth_all[live, k1, :d] if truth_all is not None
+              else np.stack([truth[r][k1, :d] for r in live]))
+        err = np.linalg.norm(b.mean[:, :d] - at, axis=1)
         for j in np.flatnonzero(err > diverge_m):
             if len(live) == 1:
                 raise Divergence(f"vehicle error above {diverge_m} m at step {k1} "
@@ -175,7 +205,10 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
             """The members' observations (B, k·dz) at the offsets ``index`` within their
             own slice of step ``k`` (runs' observation arrays differ in length)."""
             starts = [problems[r].observations[k].start or 0 for r in live]
-            z = np.stack([obs[r][s + index] for r, s in zip(live, starts)])
+            if obs_all is not None:  # one gather for all members
+                z = obs_all[live[:, None], np.add.outer(starts, index)]
+            else:
+                z = np.stack([obs[r][s + index] for r, s in zip(live, starts)])
             return z.reshape(len(live), -1), starts[0] + index
 
         def correct(e: int, b: Belief, live: Array) -> tuple[Belief, list[Innovation]]:
@@ -215,17 +248,20 @@ def _run_group(problems: Sequence[SlamProblem], filter_name: str, diverge_m: flo
             parts: dict[tuple[int, ...], list[tuple[Belief, Array]]] = {}
             for b, live, ids in cohorts:
                 by_layout: dict[tuple[int, ...], list[int]] = {}
-                for j, r in enumerate(live):
-                    if e >= n_ep[r]:  # the run has ended: its belief is final
-                        finals[int(r)] = member(b, j)
-                        final_ids[r] = ids
+                for js in _twins(twin[live]):  # the same steps and ids: one key
+                    r = live[js[0]]
+                    if e >= n_ep[r]:  # the runs have ended: their beliefs are final
+                        for j in js:
+                            finals[int(live[j])] = member(b, j)
+                            final_ids[live[j]] = ids
                         continue
                     k = int(steps[r][e])
                     sl = problems[r].observations.get(k)
                     key = (k, int(steps[r][e - 1]) if e else -1,
                            *(() if sl is None else (int(i) for i in problems[r].obs_id[sl])))
-                    by_layout.setdefault(key, []).append(j)
+                    by_layout.setdefault(key, []).extend(js)
                 for key, js in by_layout.items():
+                    js.sort()  # the members in the cohort's order
                     sub, lv = (b, live) if len(js) == len(live) else (take(b, js), live[js])
                     structure = _structure(problems[int(lv[0])], key[0], ids)
                     for r in lv:

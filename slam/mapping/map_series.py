@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimators.consistency import nees_2d_entries
 from estimators.linalg import Array
 from estimators.models import Belief, SqrtGaussian
 from estimators.partitioned import BlockLayout
@@ -129,9 +130,13 @@ class BatchMapRecorder:
         if n_lm == 0:
             return out
         start, stop = lay.vehicle_dim, lay.vehicle_dim + n_lm * nd
-        if isinstance(b, SqrtGaussian):
+        if isinstance(b, SqrtGaussian):  # entry by entry: one pass over the rows each
             S = b.sqrt[:, start:stop].reshape(B, n_lm, nd, -1)
-            blocks = np.einsum("blik,bljk->blij", S, S)
+            blocks = np.empty((B, n_lm, nd, nd))
+            for i in range(nd):
+                for j in range(i + 1):
+                    blocks[..., i, j] = np.einsum("blk,blk->bl", S[:, :, i], S[:, :, j])
+                    blocks[..., j, i] = blocks[..., i, j]
         else:
             C = b.cov[:, start:stop, start:stop].reshape(B, n_lm, nd, n_lm, nd)
             idx = np.arange(n_lm)
@@ -146,10 +151,18 @@ class BatchMapRecorder:
             return out
         means = b.mean[:, lay.vehicle_ambient:lay.vehicle_ambient + n_lm * na
                        ].reshape(B, n_lm, na)
-        err = means[:, known] - self.truth[ids[known]]
+        every = bool(known.all())  # (no copies of the blocks then)
+        err = (means if every else means[:, known]) - self.truth[ids[known]]
         k = int(known.sum())
-        nees = nees_series(err.reshape(B * k, nd), blocks[:, known].reshape(B * k, nd, nd)
-                           ).reshape(B, k)
+        if nd == 2:  # nees_series' closed form, on the (B, k) entries
+            P = blocks if every else blocks[:, known]
+            e0, e1 = err[..., 0], err[..., 1]
+            nees = nees_2d_entries(e0, e1, P[..., 0, 0], 0.5 * (P[..., 0, 1] + P[..., 1, 0]),
+                                   P[..., 1, 1])
+            nees[~(np.isfinite(e0) & np.isfinite(e1))] = np.nan
+        else:
+            nees = nees_series(err.reshape(B * k, nd), blocks[:, known].reshape(B * k, nd, nd)
+                               ).reshape(B, k)
         finite = np.isfinite(nees)
         out[:, 1] = k
         out[:, 2] = np.sum(err**2, axis=(1, 2))

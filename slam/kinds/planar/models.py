@@ -111,39 +111,37 @@ def motion_model(dt: float, wheelbase: float, control_cov: Array, n_steps: int =
 
 def _motion_jacobian_batch(x: Array, u: Array, dt: float, wheelbase: float
                            ) -> tuple[Array, Array]:
-    """The motion Jacobians ``(F, G)`` (..., n, n), (..., n, 2 n_steps) of a batch of states
-    ``x`` (..., n) with controls ``u`` (..., n_steps, 2): the per-step chain of
-    :func:`motion_model`'s Jacobian, run for every member at once."""
+    r"""The motion Jacobians ``(F, G)`` (..., n, n), (..., n, 2 n_steps) of a batch of states
+    ``x`` (..., n) with controls ``u`` (..., n_steps, 2): :func:`motion_model`'s chain of
+    per-step Jacobians in closed form, for every member at once.  Each step's state
+    Jacobian is a shear :math:`F_i = I + c_i e_φ^\top` (:math:`c_i = V dt(-\sin a_i,
+    \cos a_i, 0)`, :math:`e_φ^\top c_j = 0`), so :math:`F_j \cdots F_{i+1} = I +
+    (\sum_{i < l \le j} c_l) e_φ^\top` and :math:`F = I + (\sum_i c_i) e_φ^\top`,
+    :math:`G_{[i]} = G_i + (\sum_{l > i} c_l) (G_i)_{φ,:}` (the headings along the mean
+    path are the running sum of the turns; their wrapping changes no sine or cosine)."""
     lead, n = x.shape[:-1], x.shape[-1]
     s = u.shape[-2]
     V, Gs = u[..., 0], u[..., 1]
     vdt = V * dt
     turn = vdt * np.sin(Gs) / wheelbase
-    heading = np.empty(lead + (s,))
-    h = x[..., 2]
-    for i in range(s):
-        heading[..., i] = h
-        h = wrap_angle(h + turn[..., i])
+    heading = x[..., 2:3] + np.concatenate(
+        [np.zeros(lead + (1,)), np.cumsum(turn[..., :-1], axis=-1)], axis=-1)
     a = Gs + heading
     sa, ca = np.sin(a), np.cos(a)
-    F = np.zeros(lead + (s, 3, 3))
-    F[..., [0, 1, 2], [0, 1, 2]] = 1.0
-    F[..., 0, 2] = -V * dt * sa
-    F[..., 1, 2] = V * dt * ca
-    Gi = np.empty(lead + (s, 3, 2))
-    Gi[..., 0, 0], Gi[..., 0, 1] = dt * ca, -V * dt * sa
-    Gi[..., 1, 0], Gi[..., 1, 1] = dt * sa, V * dt * ca
-    Gi[..., 2, 0], Gi[..., 2, 1] = dt * np.sin(Gs) / wheelbase, V * dt * np.cos(Gs) / wheelbase
-    Fv = np.broadcast_to(np.eye(3), lead + (3, 3))
-    Gv = np.zeros(lead + (3, 2 * s))
-    for i in range(s):
-        Fv = F[..., i, :, :] @ Fv
-        Gv = F[..., i, :, :] @ Gv
-        Gv[..., 2 * i:2 * i + 2] = Gi[..., i, :, :]
-    Fm = np.broadcast_to(np.eye(n), lead + (n, n)).copy()
-    Fm[..., :3, :3] = Fv
+    c = np.stack([-vdt * sa, vdt * ca], axis=-2)                 # (..., 2, s): c_i, x and y
+    after = np.cumsum(c[..., ::-1], axis=-1)[..., ::-1] - c      # sum over l > i of c_l
+    Gi = np.empty(lead + (3, 2, s))
+    Gi[..., 0, 0, :], Gi[..., 0, 1, :] = dt * ca, -V * dt * sa
+    Gi[..., 1, 0, :], Gi[..., 1, 1, :] = dt * sa, V * dt * ca
+    Gi[..., 2, 0, :] = dt * np.sin(Gs) / wheelbase
+    Gi[..., 2, 1, :] = V * dt * np.cos(Gs) / wheelbase
+    Gi[..., :2, :, :] += after[..., :, None, :] * Gi[..., 2:3, :, :]
+    Fm = np.zeros(lead + (n, n))
+    i = np.arange(n)
+    Fm[..., i, i] = 1.0
+    Fm[..., :2, 2] = after[..., 0] + c[..., 0]
     Gm = np.zeros(lead + (n, 2 * s))
-    Gm[..., :3, :] = Gv
+    Gm[..., :3, :] = np.swapaxes(Gi, -1, -2).reshape(lead + (3, 2 * s))
     return Fm, Gm
 
 
