@@ -165,25 +165,28 @@ class Ahead:
 
     def __init__(self, log: InsLog, model: InsModel, fixes: int):
         self.log, self.model, self.fixes = log, model, int(fixes)
-        self.done: dict[int, Preintegrated] = {}
+        self.done: dict[int, Preintegrated | None] = {}
 
     def of(self, i: int, mean: Array) -> Preintegrated | None:
-        """Epoch ``i``'s increments (``None`` with ``fixes = 1`` or an epoch of no
-        samples), computing the next batch from ``mean`` when ``i`` is not in the last."""
+        """Epoch ``i``'s increments (``None`` with ``fixes = 1`` or for an epoch of no
+        samples, which :func:`~nav.ins.ins_transition` then handles as before), computing
+        the next batch from ``mean`` when ``i`` is not in the last."""
         if self.fixes <= 1:
             return None
         if i not in self.done:
             stop = min(i + self.fixes, self.log.n_fixes)
-            pieces = [self.log.epochs.of(k) for k in range(i, stop)]
-            g, f, h, counts = pad_epochs(pieces)
-            if counts.min() == 0:
+            full = [k for k in range(i, stop) if len(self.log.epochs.of(k)[2])]
+            self.done = dict.fromkeys(range(i, stop))
+            if not full:
                 return None
+            pieces = [self.log.epochs.of(k) for k in full]
+            g, f, h, counts = pad_epochs(pieces)
             psd = self.model.psd
             tau = [float(np.sum(p[2])) for p in pieces]
             dg = np.sqrt([psd.gyro_bias.decay(t) for t in tau])[:, None]
             da = np.sqrt([psd.accel_bias.decay(t) for t in tau])[:, None]
             b = np.concatenate([mean[BG] * dg, mean[BA] * da], axis=1)
-            self.done = dict(zip(range(i, stop), preintegrate_stack(g, f, h, b, counts)))
+            self.done.update(zip(full, preintegrate_stack(g, f, h, b, counts)))
         return self.done[i]
 
 
