@@ -36,6 +36,7 @@ composed over the blocks (:func:`compose_sums`, equal to the pairwise :func:`com
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -65,8 +66,8 @@ LAYOUT = InsLayout(DIM, bg=BG)
 SUBSTEP_SAMPLES = 10
 
 __all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "compose_sums",
-           "error_matrices", "error_transition", "ins_transition", "preintegrate", "propagate",
-           "propagate_preintegrated", "psd_sqrt"]
+           "error_matrices", "error_transition", "ins_transition", "pad_epochs", "preintegrate",
+           "preintegrate_stack", "propagate", "propagate_preintegrated", "psd_sqrt"]
 
 
 @dataclass(frozen=True)
@@ -272,46 +273,16 @@ def preintegrate(gyro: Array, accel: Array, dt: Array, b: Array) -> Preintegrate
 
     Evaluated without per-sample matrix sums: the attitudes are prefix products of the
     matrices :math:`\mathrm{Exp}(\phi_k) = I + (1 - \theta_k^2 b_{1,k})[\phi_k]_\times +
-    a_{1,k}[\phi_k]_\times^2` (log-depth, :func:`_prefix`); with
+    a_{1,k}[\phi_k]_\times^2` (log-depth); with
     :math:`T_j = R_{j+1}J_r(\phi_j)\Delta t_j` (so :math:`S_k = \sum_{j<k}T_j`) and
     :math:`\sigma_k = \sum_{j>k}\Delta t_j`, :math:`\sum_k [c_k\times]S_k =
-    \sum_j [\bar c_j\times]T_j` with :math:`\bar c_j = \sum_{k>j}c_k` (one product,
-    :func:`_cross_sum`) and :math:`\sum_k J_{\cdot,<k}\Delta t_k = \sum_k J_{\cdot,k}
+    \sum_j [\bar c_j\times]T_j` with :math:`\bar c_j = \sum_{k>j}c_k` (one product)
+    and :math:`\sum_k J_{\cdot,<k}\Delta t_k = \sum_k J_{\cdot,k}
     \sigma_k`, so each Jacobian block is one contraction over the samples;
     :math:`\Delta p = \sum_k c_k` with :math:`c_k = u_k\Delta t_k\sigma_k + w_k\Delta
-    t_k^2`."""
-    w = gyro - b[:3]
-    f = accel - b[3:]
-    n = len(dt)
-    h = dt[:, None]
-    phi = w * h
-    t2 = np.einsum("ni,ni->n", phi, phi)
-    a1, b1, _, b2 = (c[:, None, None] for c in gamma_coefficients(t2))
-    K = skew(phi)
-    eye = np.eye(3)
-    K2 = phi[:, :, None] * phi[:, None, :] - t2[:, None, None] * eye  # [φ×]² = φφᵀ - |φ|²I
-    R = _prefix(eye + (1.0 - t2[:, None, None] * b1) * K + a1 * K2)  # (n + 1, 3, 3)
-    Rk = R[:-1]
-    RG = Rk @ np.concatenate([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=2)
-    u = np.einsum("nij,nj->ni", RG[:, :, :3], f)  # RG = [R_k Γ1, R_k Γ2] (n, 3, 6)
-    wv = np.einsum("nij,nj->ni", RG[:, :, 3:], f)
-    uh = u * h
-    sig = _after(dt)
-    c = uh * sig[:, None] + wv * h * h
-    # T_j = R_{j+1} J_r(φ_j) Δt_j = R_j Γ1(φ_j) Δt_j (Exp(φ) J_r(φ) = J_l(φ) = Γ1(φ))
-    M = _cross_sum(_after(np.concatenate([uh, c], axis=1)) * h, RG)  # (2, 3, 3)
-    h2 = dt * dt
-    G = (np.stack([dt, dt * sig, h2]) @ RG.reshape(n, 18)).reshape(3, 3, 6)
-    G1, G1s, G2h = G[0, :, :3], G[1, :, :3], G[2, :, 3:]  # Σ RΓ1 Δt, Σ RΓ1 Δt σ, Σ RΓ2 Δt²
-    F = _times_skew(np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)]), Rk, f)
-    J = np.zeros((9, 6))
-    J[0:3, 0:3] = -R[-1].T @ G1
-    J[3:6, 0:3] = M[0] + F[0]
-    J[3:6, 3:6] = -G1
-    J[6:9, 0:3] = M[1] + F[1]
-    J[6:9, 3:6] = -(G1s + G2h)
-    return Preintegrated(_quaternion(R[-1]), uh.sum(axis=0), c.sum(axis=0), J,
-                         np.asarray(b, dtype=float).copy(), float(dt.sum()), R)
+    t_k^2`.  Computed as :func:`preintegrate_stack` of this one epoch."""
+    return preintegrate_stack(*(np.asarray(a, dtype=np.float64)[None]
+                                for a in (gyro, accel, dt, b)))[0]
 
 
 def _quaternion(C: Array) -> Array:
@@ -328,42 +299,88 @@ def _quaternion(C: Array) -> Array:
     return np.array([w, (c21 - c12) * k, (c02 - c20) * k, (c10 - c01) * k])
 
 
-def _prefix(E: Array) -> Array:
-    """Prefix products ``[I, E_0, E_0 E_1, ...]`` (n + 1, 3, 3) of (n, 3, 3) matrices
-    (log-depth)."""
-    out = E.copy()
-    off = 1
-    while off < len(out):
-        out[off:] = out[:-off] @ out[off:]
-        off *= 2
-    return np.concatenate([np.eye(3)[None], out])
+def pad_epochs(pieces: Sequence[tuple[Array, Array, Array]]
+               ) -> tuple[Array, Array, Array, NDArray[np.int64]]:
+    """``(gyro (E, n, 3), accel (E, n, 3), dt (E, n), counts (E,))`` of epochs given as
+    ``(gyro, accel, dt)`` pieces, each padded to the longest with zero-length samples."""
+    counts = np.array([len(p[2]) for p in pieces], dtype=np.int64)
+    n = int(counts.max())
+    E = len(pieces)
+    g, f, h = np.zeros((E, n, 3)), np.zeros((E, n, 3)), np.zeros((E, n))
+    for e, (gy, ac, dt) in enumerate(pieces):
+        k = len(dt)
+        g[e, :k], f[e, :k], h[e, :k] = gy, ac, dt
+    return g, f, h, counts
 
 
 def _after(A: Array) -> Array:
-    """Sums of the rows after each row: ``[A_1 + ... + A_{n-1}, ..., A_{n-1}, 0]``."""
-    return np.cumsum(A[::-1], axis=0)[::-1] - A
+    """Along axis 1: the sums of the rows after each row."""
+    return np.cumsum(A[:, ::-1], axis=1)[:, ::-1] - A
 
 
-def _cross_sum(A: Array, T: Array) -> Array:
-    r""":math:`\sum_j [a_j\times]T_j` for each 3-column group of ``A`` (n, 3g) and the
-    first three columns of ``T`` (n, 3, c) -> (g, 3, 3): :math:`([a\times]T)_{il} =
-    \epsilon_{ikm}a_kT_{ml}`, so the sum is :math:`\epsilon_{ikm}Y_{kml}` of the one
-    product :math:`Y = A^\top T`."""
-    Y = (A.T @ T.reshape(len(T), -1)).reshape(-1, 3, 3, T.shape[-1])[..., :3]
-    return np.stack([Y[:, 1, 2] - Y[:, 2, 1], Y[:, 2, 0] - Y[:, 0, 2],
-                     Y[:, 0, 1] - Y[:, 1, 0]], axis=1)
+def preintegrate_stack(gyro: Array, accel: Array, dt: Array, b: Array,
+                       counts: NDArray[np.int64] | None = None) -> list[Preintegrated]:
+    r""":func:`preintegrate` of ``E`` epochs at once, each about its own biases: ``gyro,
+    accel`` (E, n, 3), ``dt`` (E, n), biases ``b`` (E, 6); ``counts`` (E,) the true sample
+    counts (the attitudes ``R_samples`` are cut to ``count + 1``).  Each product over the
+    samples is one numpy call for all the epochs, so a filter pays numpy's fixed cost once
+    per batch instead of once per epoch.  Epochs of different lengths are padded with
+    zero-length samples (:func:`pad_epochs`), which change nothing: :math:`\mathrm{Exp}(0)
+    = I` and every sum is weighted by :math:`\Delta t_k = 0`.
 
+    A filter preintegrating ahead does not know the biases of the later epochs yet; it
+    takes its mean's at the batch's first epoch as the reference ``b`` of all of them
+    (:class:`Preintegrated` carries it, and :func:`propagate_preintegrated` moves every
+    point, the mean included, to first order in its bias offset from it)."""
+    E, n = dt.shape
+    b = np.asarray(b, dtype=np.float64)
+    w = gyro - b[:, None, :3]
+    f = accel - b[:, None, 3:]
+    h = dt[..., None]
+    phi = w * h
+    t2 = np.einsum("eni,eni->en", phi, phi)
+    a1, b1, _, b2 = (c[..., None, None] for c in gamma_coefficients(t2))
+    K = skew(phi)
+    eye = np.eye(3)
+    K2 = phi[..., :, None] * phi[..., None, :] - t2[..., None, None] * eye
+    R = (eye + (1.0 - t2[..., None, None] * b1) * K + a1 * K2).copy()
+    off = 1
+    while off < n:  # prefix products along the samples (log-depth)
+        R[:, off:] = R[:, :-off] @ R[:, off:]
+        off *= 2
+    R = np.concatenate([np.broadcast_to(eye, (E, 1, 3, 3)), R], axis=1)  # (E, n + 1, 3, 3)
+    Rk = R[:, :-1]
+    RG = Rk @ np.concatenate([eye + a1 * K + b1 * K2, 0.5 * eye + b1 * K + b2 * K2], axis=-1)
+    u = np.einsum("enij,enj->eni", RG[..., :3], f)
+    wv = np.einsum("enij,enj->eni", RG[..., 3:], f)
+    uh = u * h
+    sig = _after(dt)
+    c = uh * sig[..., None] + wv * h * h
+    A = _after(np.concatenate([uh, c], axis=-1)) * h  # (E, n, 6)
+    Y = (np.swapaxes(A, 1, 2) @ RG.reshape(E, n, 18)).reshape(E, 2, 3, 3, 6)[..., :3]
+    M = np.stack([Y[:, :, 1, 2] - Y[:, :, 2, 1], Y[:, :, 2, 0] - Y[:, :, 0, 2],
+                  Y[:, :, 0, 1] - Y[:, :, 1, 0]], axis=2)  # (E, 2, 3, 3)
+    h2 = dt * dt
+    G = (np.stack([dt, dt * sig, h2], axis=1) @ RG.reshape(E, n, 18)).reshape(E, 3, 3, 6)
+    G1, G1s, G2h = G[:, 0, :, :3], G[:, 1, :, :3], G[:, 2, :, 3:]
+    W = np.stack([0.5 * h2, h2 * (0.5 * sig + dt / 6.0)], axis=1)  # (E, 2, n)
+    Z = (np.swapaxes(Rk.reshape(E, n, 9), 1, 2)
+         @ (np.swapaxes(W, 1, 2)[..., None] * f[:, :, None, :]).reshape(E, n, 6))
+    Z = Z.reshape(E, 3, 3, 2, 3)  # (e, i, j, g, m)
+    Fs = np.stack([Z[:, :, 1, :, 2] - Z[:, :, 2, :, 1], Z[:, :, 2, :, 0] - Z[:, :, 0, :, 2],
+                   Z[:, :, 0, :, 1] - Z[:, :, 1, :, 0]], axis=-1)  # (e, i, g, l)
+    Fs = np.swapaxes(Fs, 1, 2)  # (e, g, i, l)
+    J = np.zeros((E, 9, 6))
+    J[:, 0:3, 0:3] = -np.swapaxes(R[:, -1], 1, 2) @ G1
+    J[:, 3:6, 0:3] = M[:, 0] + Fs[:, 0]
+    J[:, 3:6, 3:6] = -G1
+    J[:, 6:9, 0:3] = M[:, 1] + Fs[:, 1]
+    J[:, 6:9, 3:6] = -(G1s + G2h)
+    dv, dp, tau = uh.sum(axis=1), c.sum(axis=1), dt.sum(axis=1)
+    counts = np.full(E, n, dtype=np.int64) if counts is None else counts
+    return [Preintegrated(_quaternion(R[e, -1]), dv[e], dp[e], J[e], b[e].copy(),
+                          float(tau[e]), R[e, :int(counts[e]) + 1]) for e in range(E)]
 
-def _times_skew(W: Array, R: Array, f: Array) -> Array:
-    r""":math:`\sum_k w_{gk} R_k[f_k\times]` (g, 3, 3) for weights ``W`` (g, n): with
-    :math:`[f\times]_{jl} = \epsilon_{jml}f_m` it is :math:`\epsilon_{jml}Y_{gijm}` of the
-    one product :math:`Y_{gijm} = \sum_k w_{gk}R_{k,ij}f_{k,m}`."""
-    n, g = len(f), len(W)
-    Y = (R.reshape(n, 9).T @ (W.T[:, :, None] * f[:, None, :]).reshape(n, 3 * g))
-    Y = Y.reshape(3, 3, g, 3)  # (i, j, g, m)
-    out = np.stack([Y[:, 1, :, 2] - Y[:, 2, :, 1], Y[:, 2, :, 0] - Y[:, 0, :, 2],
-                    Y[:, 0, :, 1] - Y[:, 1, :, 0]], axis=-1)  # (i, g, l)
-    return np.swapaxes(out, 0, 1)
 
 
 def propagate_preintegrated(X: Array, pre: Preintegrated, model: InsModel) -> Array:
@@ -422,7 +439,7 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
     EKF Jacobian :math:`\Phi`.  Without Earth rate and with ``preintegrated`` the points
     move by the epoch's increments preintegrated once at the mean's biases
     (:func:`propagate_preintegrated`; ``pre``: these increments already computed, about
-    the reference biases ``pre.b``, e.g. by :func:`nav.preintegrate_stack.preintegrate_stack`),
+    the reference biases ``pre.b``, e.g. by :func:`preintegrate_stack`),
     else each point is mechanised (:func:`propagate`)."""
     dt = np.asarray(dt, dtype=np.float64)
     if preintegrated and (model.earth_rate is None or not np.any(model.earth_rate)):

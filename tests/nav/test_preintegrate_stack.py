@@ -1,4 +1,4 @@
-"""nav.preintegrate_stack: several epochs preintegrated at once equal each epoch's own
+"""nav.ins.preintegrate_stack: several epochs preintegrated at once equal each epoch's own
 :func:`nav.ins.preintegrate` (padding with zero-length samples changes nothing), and
 :func:`nav.ins.ins_transition` given the increments equals computing them itself."""
 
@@ -10,7 +10,7 @@ import pytest
 import nav.ins as ins
 from nav.gravity import gravity_vector
 from nav.imu_noise import BiasProcess, ImuPsd
-from nav.preintegrate_stack import pad_epochs, preintegrate_stack
+from nav.ins import pad_epochs, preintegrate_stack
 from nav.quaternion import qexp
 
 FIELDS = ("dq", "dv", "dp", "J", "R_samples")

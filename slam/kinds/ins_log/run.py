@@ -24,8 +24,17 @@ from nav.alignment import level, track_heading
 from nav.euler import euler_zyx_to_q
 from nav.gnss import gnss_measurement
 from nav.gravity import gravity_vector
-from nav.ins import BA, BG, LAYOUT, SPACE, InsModel, Preintegrated, ins_transition
-from nav.preintegrate_stack import pad_epochs, preintegrate_stack
+from nav.ins import (
+    BA,
+    BG,
+    LAYOUT,
+    SPACE,
+    InsModel,
+    Preintegrated,
+    ins_transition,
+    pad_epochs,
+    preintegrate_stack,
+)
 from nav.quaternion import qto_dcm
 from nav.strapdown import dcm_unit, earth_rate_enu
 from slam.kinds.ins_log import invariant
@@ -159,7 +168,7 @@ def uses_preintegration(model: InsModel) -> bool:
 
 
 class Ahead:
-    """The increments of ``fixes`` epochs at a time (:mod:`nav.preintegrate_stack`), about
+    """The increments of ``fixes`` epochs at a time (:func:`nav.ins.preintegrate_stack`), about
     the biases of the mean at the first of them; ``fixes = 1``: none (each epoch is
     preintegrated about its own mean's biases by :func:`nav.ins.ins_transition`)."""
 

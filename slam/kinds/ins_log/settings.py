@@ -61,7 +61,7 @@ from worlds.common import TunedFilters
 DEFAULT_FILTERS: tuple[str, ...] = ("ekf", "ckf", "ukf", "srckf")
 PREINTEGRATION_FIXES = 20
 """The epochs (fix to fix) whose IMU increments are preintegrated in one batch
-(:mod:`nav.preintegrate_stack`) about the filter mean's biases at the first of them; every
+(:func:`nav.ins.preintegrate_stack`) about the filter mean's biases at the first of them; every
 sigma point, the mean included, then moves to first order in its bias offset from that
 reference (:func:`nav.ins.propagate_preintegrated`).  1 preintegrates each epoch about its
 own mean's biases (the mean's prediction then is the mechanisation itself).  On KITTI 20
