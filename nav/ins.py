@@ -66,8 +66,9 @@ LAYOUT = InsLayout(DIM, bg=BG)
 SUBSTEP_SAMPLES = 10
 
 __all__ = ["DIM", "LAYOUT", "SPACE", "InsModel", "Preintegrated", "compose", "compose_sums",
-           "error_matrices", "error_transition", "ins_transition", "pad_epochs", "preintegrate",
-           "preintegrate_stack", "propagate", "propagate_preintegrated", "psd_sqrt"]
+           "epoch_biases", "error_matrices", "error_transition", "ins_transition", "pad_epochs",
+           "preintegrate", "preintegrate_stack", "preintegrates", "propagate",
+           "propagate_preintegrated", "psd_sqrt"]
 
 
 @dataclass(frozen=True)
@@ -121,6 +122,20 @@ def psd_sqrt(C: Array) -> Array:
 
 def _decays(model: InsModel, tau: float) -> tuple[float, float]:
     return model.psd.gyro_bias.decay(tau), model.psd.accel_bias.decay(tau)
+
+
+def epoch_biases(x: Array, tau: float, model: InsModel) -> Array:
+    """The biases ``[b_g, b_a]`` (6,) of state ``x`` held over an epoch of length ``tau``:
+    the Markov parts at their mid-epoch values (module docstring) - the biases the
+    epoch's increments are preintegrated about."""
+    dg, da = _decays(model, tau)
+    return np.concatenate([x[BG] * np.sqrt(dg), x[BA] * np.sqrt(da)])
+
+
+def preintegrates(model: InsModel, preintegrated: bool = True) -> bool:
+    """:func:`ins_transition` moves the points by preintegrated increments (asked for, and
+    no Earth rate in the model)."""
+    return preintegrated and (model.earth_rate is None or not np.any(model.earth_rate))
 
 
 def propagate(X: Array, gyro: Array, accel: Array, dt: Array, model: InsModel) -> Array:
@@ -442,11 +457,9 @@ def ins_transition(x_mean: Array, gyro: Array, accel: Array, dt: Array, model: I
     the reference biases ``pre.b``, e.g. by :func:`preintegrate_stack`),
     else each point is mechanised (:func:`propagate`)."""
     dt = np.asarray(dt, dtype=np.float64)
-    if preintegrated and (model.earth_rate is None or not np.any(model.earth_rate)):
+    if preintegrates(model, preintegrated):
         if pre is None:
-            dg, da = _decays(model, float(np.sum(dt)))
-            pre = preintegrate(gyro, accel, dt, np.concatenate([x_mean[BG] * np.sqrt(dg),
-                                                                x_mean[BA] * np.sqrt(da)]))
+            pre = preintegrate(gyro, accel, dt, epoch_biases(x_mean, float(np.sum(dt)), model))
         Phi, Qe = error_transition(x_mean, gyro, accel, dt, model, relative=pre.R_samples)
         done = pre
 

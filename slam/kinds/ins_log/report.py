@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from slam.kind import Deferred
+from slam.kinds.ins_log.run import ONLINE
 from slam.render import tum
 from slam.render.decision import decision_sections, decision_text
 from slam.render.document import KindReport, Section
@@ -140,7 +141,7 @@ TUM_COV = ("t, then the 6 x 6 covariance of [position (m, ENU), attitude rotatio
 
 def _online_cov(name: str) -> str:
     return TUM_COV + ("; NaN except at the scored (withheld or dropped) fixes: iSAM2's "
-                      "marginal there, right after that fix" if name == "gtsam-online" else "")
+                      "marginal there, right after that fix" if name == ONLINE else "")
 
 
 def _track(o: Any, name: str) -> tuple[Any, Any, Any]:

@@ -25,15 +25,15 @@ from nav.euler import euler_zyx_to_q
 from nav.gnss import gnss_measurement
 from nav.gravity import gravity_vector
 from nav.ins import (
-    BA,
-    BG,
     LAYOUT,
     SPACE,
     InsModel,
     Preintegrated,
+    epoch_biases,
     ins_transition,
     pad_epochs,
     preintegrate_stack,
+    preintegrates,
 )
 from nav.quaternion import qto_dcm
 from nav.strapdown import dcm_unit, earth_rate_enu
@@ -161,10 +161,9 @@ def measurement_of(log: InsLog, i: int, cache: dict | None = None) -> tuple[Any,
 
 
 def uses_preintegration(model: InsModel) -> bool:
-    """The prediction is preintegrated (:func:`nav.ins.ins_transition`'s default without
-    Earth rate)."""
-    return bool(ins_transition.__kwdefaults__["preintegrated"]) and (
-        model.earth_rate is None or not np.any(model.earth_rate))
+    """The prediction is preintegrated (:func:`nav.ins.preintegrates` with
+    :func:`nav.ins.ins_transition`'s default, which ``benchmarks.kitti_speed`` switches)."""
+    return preintegrates(model, bool(ins_transition.__kwdefaults__["preintegrated"]))
 
 
 class Ahead:
@@ -184,18 +183,14 @@ class Ahead:
             return None
         if i not in self.done:
             stop = min(i + self.fixes, self.log.n_fixes)
-            full = [k for k in range(i, stop) if len(self.log.epochs.of(k)[2])]
             self.done = dict.fromkeys(range(i, stop))
-            if not full:
+            pieces = {k: p for k in range(i, stop) if len((p := self.log.epochs.of(k))[2])}
+            if not pieces:
                 return None
-            pieces = [self.log.epochs.of(k) for k in full]
-            g, f, h, counts = pad_epochs(pieces)
-            psd = self.model.psd
-            tau = [float(np.sum(p[2])) for p in pieces]
-            dg = np.sqrt([psd.gyro_bias.decay(t) for t in tau])[:, None]
-            da = np.sqrt([psd.accel_bias.decay(t) for t in tau])[:, None]
-            b = np.concatenate([mean[BG] * dg, mean[BA] * da], axis=1)
-            self.done.update(zip(full, preintegrate_stack(g, f, h, b, counts)))
+            g, f, h, counts = pad_epochs(list(pieces.values()))
+            b = np.array([epoch_biases(mean, float(np.sum(p[2])), self.model)
+                          for p in pieces.values()])
+            self.done.update(zip(pieces, preintegrate_stack(g, f, h, b, counts)))
         return self.done[i]
 
 
