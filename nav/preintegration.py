@@ -94,3 +94,18 @@ def preintegrate_rotation(gyro: Any, dt: float, gyro_var: float
         T += dt
     C = np.broadcast_to(gyro_var * T * np.eye(3), (m, 3, 3)).copy()
     return T, R, np.ascontiguousarray(np.swapaxes(Dt, -1, -2)), C
+
+
+def pose3_world_cov(S: Any, Rs: Any) -> Any:
+    r"""GTSAM ``Pose3`` covariances (E, 6, 6) in its body tangent ``[ω, v]`` (the pose moved
+    to :math:`R\,\mathrm{Exp}(ω)`, :math:`t + R v`) as the filters' ``[δp (world), δθ
+    (body)]`` ones at the attitudes ``Rs`` (E, 3, 3): :math:`[δp; δθ] = J [ω; v]` with
+    :math:`J = [[0, R], [I, 0]]`."""
+    S, Rs = np.asarray(S, dtype=float), np.asarray(Rs, dtype=float)
+    pcov = np.empty_like(S)
+    RT = np.swapaxes(Rs, -1, -2)
+    pcov[:, :3, :3] = Rs @ S[:, 3:, 3:] @ RT
+    pcov[:, :3, 3:] = Rs @ S[:, 3:, :3]
+    pcov[:, 3:, :3] = np.swapaxes(pcov[:, :3, 3:], -1, -2)
+    pcov[:, 3:, 3:] = S[:, :3, :3]
+    return pcov

@@ -29,13 +29,13 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, L, V, X
 
+from nav.preintegration import pose3_world_cov
 from nav.quaternion import dcm_to_q
 from slam.kinds.drone.filtering import DroneEstimate
 from slam.kinds.drone.reference import (
     StateRows,
     _prior_preintegrations,
     _solve_isam,
-    _world_frame,
     preintegration_params,
 )
 from slam.kinds.drone.simulate import DroneLog
@@ -64,7 +64,7 @@ def online_drone(log: DroneLog, *, imu_noise_scale: float = 1.0,
                                   _prior_preintegrations(log, params), on_update=record)
     ids = np.array(sorted(seen), dtype=np.int64)
     lms = np.array([values.atPoint3(L(int(j))) for j in ids], dtype=float).reshape(-1, 3)
-    return DroneEstimate(ONLINE, st.p, st.v, dcm_to_q(st.Rs), st.bias, _world_frame(S, st.Rs),
+    return DroneEstimate(ONLINE, st.p, st.v, dcm_to_q(st.Rs), st.bias, pose3_world_cov(S, st.Rs),
                          ids, lms, np.full((len(ids), 3, 3), np.nan), nis=np.zeros(0),
                          nis_dof=np.zeros(0, int),
                          time_s=time.perf_counter() - t0 - sampler.seconds,

@@ -73,7 +73,7 @@ import numpy as np
 from gtsam.symbol_shorthand import B, L, V, X
 
 from estimators.linalg import Array
-from nav.preintegration import combined_params
+from nav.preintegration import combined_params, pose3_world_cov
 from nav.quaternion import dcm_to_q
 from slam.chain_marginals import chain_marginals, jacobian_rows
 from slam.kinds.drone.filtering import DroneEstimate
@@ -363,18 +363,6 @@ def solve_graph(log: DroneLog, *, imu_noise_scale: float = 1.0, sensor_noise_sca
     return graph, _polish(graph, init, tol), seen
 
 
-def _world_frame(S: Array, Rs: Array) -> Array:
-    r"""``Pose3`` covariances ``[rot, trans]`` (body frame) (E, 6, 6) -> ``[δp (world),
-    δθ (body)]`` with :math:`\delta p = R\,\delta t`."""
-    pcov = np.empty_like(S)
-    RT = np.swapaxes(Rs, -1, -2)
-    pcov[:, :3, :3] = Rs @ S[:, 3:, 3:] @ RT
-    pcov[:, :3, 3:] = Rs @ S[:, 3:, :3]
-    pcov[:, 3:, :3] = np.swapaxes(pcov[:, :3, 3:], -1, -2)
-    pcov[:, 3:, 3:] = S[:, :3, :3]
-    return pcov
-
-
 def _marginals(graph, values, Rs: Array, ids: Array, method: str) -> tuple[Array, Array]:
     """World-frame ``[δp, δθ]`` pose covariances (E, 6, 6) and landmark covariances:
     ``method`` ``"joint"`` by GTSAM's ``Marginals``, ``"chain"`` by the square-root sweep
@@ -388,11 +376,11 @@ def _marginals(graph, values, Rs: Array, ids: Array, method: str) -> tuple[Array
         local, glob, base = jacobian_rows(graph, values, slots, 15, 3 * len(ids))
         sig, _, s_ll = chain_marginals(local, glob, base, E)
         lcov = np.array([s_ll[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(ids))])
-        return _world_frame(sig[:, :6, :6], Rs), lcov.reshape(-1, 3, 3)
+        return pose3_world_cov(sig[:, :6, :6], Rs), lcov.reshape(-1, 3, 3)
     marg = gtsam.Marginals(graph, values)
     S = np.array([marg.marginalCovariance(X(e)) for e in range(E)])
     lcov = np.array([marg.marginalCovariance(L(int(j))) for j in ids]).reshape(-1, 3, 3)
-    return _world_frame(S, Rs), lcov
+    return pose3_world_cov(S, Rs), lcov
 
 
 class StateRows:

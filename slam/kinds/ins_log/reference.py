@@ -32,7 +32,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
-from nav.preintegration import combined_params
+from nav.preintegration import combined_params, pose3_world_cov
 from slam.failures import reason
 from slam.kinds.ins_log.log import InsLog
 from slam.kinds.ins_log.run import ONLINE, POSE, SMOOTHED, USED, WITHHELD, EstimatorTrack, model_of
@@ -80,13 +80,9 @@ def _gnss(log: InsLog, i: int, graph: gtsam.NonlinearFactorGraph) -> None:
 
 def _pose_cov(isam: gtsam.ISAM2, pose: gtsam.Pose3, key: int) -> Array:
     """iSAM2's marginal of ``key`` as the filters' ``[δp (navigation frame), δθ (body)]``
-    covariance: GTSAM's ``[ω, v]`` body tangent moves the pose to ``R Exp(ω)``,
-    ``t + R v`` to first order, so ``[δp; δθ] = J [ω; v]`` with ``J = [[0, R], [I, 0]]``."""
-    S = isam.marginalCovariance(key)
-    J = np.zeros((6, 6))
-    J[:3, 3:] = pose.rotation().matrix()
-    J[3:, :3] = np.eye(3)
-    return J @ S @ J.T
+    covariance (:func:`nav.preintegration.pose3_world_cov`)."""
+    return pose3_world_cov(isam.marginalCovariance(key)[None],
+                           pose.rotation().matrix()[None])[0]
 
 
 def _quat(pose: gtsam.Pose3) -> Array:
