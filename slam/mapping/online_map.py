@@ -24,6 +24,7 @@ import numpy as np
 from gtsam.symbol_shorthand import L
 from numpy.typing import NDArray
 
+from estimators.consistency import nees_series
 from slam.mapping.map_series import MapSeries
 
 Array = NDArray[np.float64]
@@ -68,8 +69,7 @@ class MapSampler:
         est = np.array([point(L(j)) for j in ids], dtype=float)
         cov = np.array([isam.marginalCovariance(L(j)) for j in ids], dtype=float)
         err = est - self.truth[ids]
-        with np.errstate(all="ignore"):
-            nees = np.einsum("li,lij,lj->l", err, np.linalg.inv(cov), err)
+        nees = nees_series(err, cov)  # the filters' landmark NEES (MapSeries)
         ok = np.isfinite(nees)
         self.values[:, e] = (n, n, float(np.sum(err**2)), float(np.sum(nees[ok])),
                              int(ok.sum()), float(np.trace(cov, axis1=1, axis2=2).sum()))
