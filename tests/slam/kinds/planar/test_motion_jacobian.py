@@ -53,7 +53,7 @@ def _stepped(X, u, W, dt, wheelbase):
 
 @pytest.mark.parametrize("n_steps", [1, 2, 8])
 def test_all_steps_at_once_equal_stepping(n_steps):
-    """f's running sums give the stepped model's poses (to round-off, a batch of runs and
+    """f gives the stepped model's poses (to round-off, a batch of runs and
     one run alike); the map is copied, the heading wrapped, the caller's arrays untouched."""
     rng = np.random.default_rng(10 + n_steps)
     dt, wb = 0.025, 4.0
