@@ -35,7 +35,7 @@ the previous filter epoch, :math:`T_s = T_p\,\Delta` with the body-frame covaria
 :math:`\Sigma_s = \mathrm{Ad}_{\Delta^{-1}}\Sigma_p\mathrm{Ad}_{\Delta^{-1}}^\top +
 \Sigma_\Delta` (the odometry factor's covariance, lateral σ and floor included), exactly
 what the graph would give with a pose variable there and no new measurement.  Covariances
-are returned in the world frame (:func:`~slam.kinds.planar.reference.body_to_world_cov`).
+are returned in the world frame (:func:`~slam.kinds.planar.odometry.body_to_world_cov`).
 """
 
 from __future__ import annotations
@@ -50,17 +50,16 @@ from gtsam.symbol_shorthand import L, X
 from numpy.typing import NDArray
 
 from slam.kinds.planar.log import PlanarLog
+from slam.kinds.planar.odometry import body_to_world_cov, relative_motions
 from slam.kinds.planar.reference import (
     DEFAULT_LATERAL_SIGMA_M,
     SIGMA_FLOOR,
     PlanarReference,
-    body_to_world_cov,
     epoch_factors,
     graph_inputs,
     incremental,
     obs_noise_model,
     polish,
-    relative_motions,
 )
 from slam.kinds.planar.world import ONLINE, fixed_lag_name
 from slam.mapping.map_series import MapSeries

@@ -14,8 +14,9 @@ import numpy as np
 
 from slam.decision import decide
 from slam.failures import run_reference
+from slam.kinds.planar.odometry import interpolate_reference
 from slam.kinds.planar.online import OnlineTrack, fixed_lag_planar, online_planar
-from slam.kinds.planar.reference import interpolate_reference, smooth_planar
+from slam.kinds.planar.reference import smooth_planar
 from slam.kinds.planar.scoring import reduce_run, summarize
 from slam.kinds.planar.segments import run_events, segment_summary
 from slam.kinds.planar.simulate import simulate_planar

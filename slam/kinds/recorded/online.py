@@ -14,7 +14,7 @@ from controls; a log brings its own graph, so the smoother's loop is reused inst
 
 ``Pose2`` marginals are body-frame ``[x, y, θ]`` (right perturbation); they are returned
 in the world frame of the filters' ``pose_cov``
-(:func:`~slam.kinds.planar.reference.body_to_world_cov`).  The row's ``time_s`` is the
+(:func:`~slam.kinds.planar.odometry.body_to_world_cov`).  The row's ``time_s`` is the
 whole iSAM2 pass (building the graph, the updates, the estimates and marginals read);
 the smoother from the same pass keeps its own times without those reads.
 """
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from slam.kinds.planar.reference import body_to_world_cov
+from slam.kinds.planar.odometry import body_to_world_cov
 from slam.kinds.planar.world import ONLINE
 from slam.kinds.recorded.log import OdometryLog
 from slam.kinds.recorded.reference import RecordedReference, smooth_recorded

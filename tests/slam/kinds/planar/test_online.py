@@ -13,6 +13,7 @@ from gtsam.symbol_shorthand import X
 
 from slam import cli
 from slam.campaign import run_campaign
+from slam.kinds.planar.odometry import relative_motions, world_to_body_cov
 from slam.kinds.planar.online import (
     at_filter_epochs,
     fixed_lag_planar,
@@ -24,9 +25,7 @@ from slam.kinds.planar.reference import (
     GraphInputs,
     graph_inputs,
     incremental,
-    relative_motions,
     smooth_planar,
-    world_to_body_cov,
 )
 from slam.kinds.planar.segments import CLOSURE, WINDOW_END, loop_closure_step, run_events
 from slam.kinds.planar.simulate import simulate_planar

@@ -10,14 +10,14 @@ import pytest
 from scipy.stats import chi2
 
 from slam.kinds.planar.log import PlanarLog
-from slam.kinds.planar.reference import (
+from slam.kinds.planar.odometry import (
     body_to_world_cov,
     epoch_steps_of,
     interpolate_reference,
     relative_motions,
-    smooth_planar,
     world_to_body_cov,
 )
+from slam.kinds.planar.reference import smooth_planar
 
 DT = 0.025
 WB = 4.0

@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from slam.cli import main
-from slam.kinds.planar.reference import world_to_body_cov
+from slam.kinds.planar.odometry import world_to_body_cov
 from slam.kinds.recorded.log import format_odometry_log, parse_odometry_log
 from slam.kinds.recorded.models import recorded_epochs
 from slam.kinds.recorded.online import online_recorded
