@@ -71,6 +71,13 @@ def cov_text(times: Array, cov: Array, head: str) -> str:
         f"{t:.6f} " + " ".join(f"{v:.9g}" for v in c) + "\n" for t, c in zip(times, flat))
 
 
+def write_cov(out_dir: Path, stem: str, times: Array, cov: Array, head: str) -> str:
+    """Write :func:`cov_text` to ``<stem>.cov.txt`` in ``out_dir``; -> the file name."""
+    name = f"{stem}.cov.txt"
+    (out_dir / name).write_text(cov_text(times, cov, head), encoding="utf-8")
+    return name
+
+
 def _text(note: Note, name: str) -> str:
     return note if isinstance(note, str) else note(name)
 
@@ -91,11 +98,10 @@ def write_all(result: CampaignResult, out_dir: Path, names: Iterable[str], track
             texts.append((stem, tum_text(r, header(result, o.run, name, _text(note, name),
                                                    len(r)))))
             if cov is not None and name != "truth":
-                (out_dir / f"{stem}.cov.txt").write_text(
-                    cov_text(r[:, 0], cov[ok], f"{result.summary.get('world', '')}: {name}, "
-                             f"run {o.run}: covariance per pose of {stem}.tum; "
-                             f"{_text(cov_note, name)}"), encoding="utf-8")
-                sidecars.append(f"{stem}.cov.txt")
+                sidecars.append(write_cov(
+                    out_dir, stem, r[:, 0], cov[ok], f"{result.summary.get('world', '')}: "
+                    f"{name}, run {o.run}: covariance per pose of {stem}.tum; "
+                    f"{_text(cov_note, name)}"))
     return [*write_tum(out_dir, texts), *sidecars]
 
 

@@ -178,11 +178,10 @@ def write_log_tum(result: CampaignResult, out_dir: Path) -> list[str]:
     for n, tr in tracks.items():
         if _has_cov(tr):
             ok = _rows(tr)
-            (Path(out_dir) / f"{n}.cov.txt").write_text(tum.cov_text(
-                np.asarray(tr.steps, float)[ok], np.asarray(tr.pose_cov)[ok],
+            written.append(tum.write_cov(
+                Path(out_dir), n, np.asarray(tr.steps, float)[ok], np.asarray(tr.pose_cov)[ok],
                 f"{result.summary.get('log', '')}: {n}: covariance per pose of {n}.tum; "
-                f"{COV_NOTE}"), encoding="utf-8")
-            written.append(f"{n}.cov.txt")
+                f"{COV_NOTE}"))
     return written
 
 
